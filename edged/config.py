@@ -1,0 +1,190 @@
+"""Configuration: TOML, validated against typed schemas before anything starts.
+
+Layout of a configuration file:
+
+    [edged]                 core settings (CoreConfig)
+    [router]                queue sizes, source priority (RouterConfig)
+    [inputs.<name>]         one table per input; `type` picks the plugin, <name> is
+    [estimators.<name>]     the source / worker / output name used in topics and health
+    [outputs.<name>]
+
+Each plugin validates its own table with its own schema. Every error names the file,
+the key path and the reason (`edged.toml: inputs.gnss1.port: Input should be a valid
+integer`), and all errors of a file are reported at once.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from .plugin import PluginConfig
+from .records import KINDS
+from .registry import PluginNotFound, Registry
+
+ROLES = ("inputs", "estimators", "outputs")
+_NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
+
+
+class ConfigError(Exception):
+    """One or more configuration errors; `str()` lists them one per line."""
+
+    def __init__(self, file: str, errors: list[tuple[str, str]]) -> None:
+        self.file = file
+        self.errors = errors
+        super().__init__("\n".join(f"{file}: {k}: {r}" if k else f"{file}: {r}" for k, r in errors))
+
+
+class CoreConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    vessel_id: str = "vessel"
+    log_level: Literal["debug", "info", "warning", "error"] = "info"
+    #: Seconds between health snapshots sent to the outputs.
+    health_interval: float = Field(1.0, gt=0)
+    #: Seconds the shutdown may take before outputs are abandoned.
+    shutdown_timeout: float = Field(5.0, gt=0)
+
+    @field_validator("vessel_id")
+    @classmethod
+    def _vessel_id(cls, v: str) -> str:
+        if not _NAME_RE.match(v) or "/" in v:
+            raise ValueError("letters, digits, '_', '-' and '.' only (it is a Zenoh key segment)")
+        return v
+
+
+class RouterConfig(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    #: Seconds of data time a preferred source may be silent before the next takes over.
+    failover_timeout: float = Field(2.0, gt=0)
+    #: Per measurement kind, the sources in order of preference.
+    priority: dict[str, list[str]] = Field(default_factory=dict)
+
+    @field_validator("priority")
+    @classmethod
+    def _kinds(cls, v: dict[str, list[str]]) -> dict[str, list[str]]:
+        for kind, sources in v.items():
+            if kind not in KINDS:
+                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
+            if len(set(sources)) != len(sources):
+                raise ValueError(f"{kind}: a source is listed twice")
+        return v
+
+
+@dataclass
+class Config:
+    """A validated configuration: core sections and each plugin's validated section."""
+
+    edged: CoreConfig = field(default_factory=CoreConfig)
+    router: RouterConfig = field(default_factory=RouterConfig)
+    inputs: dict[str, PluginConfig] = field(default_factory=dict)
+    estimators: dict[str, PluginConfig] = field(default_factory=dict)
+    outputs: dict[str, PluginConfig] = field(default_factory=dict)
+    path: Path | None = None
+    text: str = ""
+
+    @property
+    def config_dir(self) -> Path:
+        return self.path.parent if self.path else Path.cwd()
+
+
+def _loc(prefix: str, loc: tuple[Any, ...]) -> str:
+    parts = [prefix] if prefix else []
+    parts += [str(p) for p in loc]
+    return ".".join(parts)
+
+
+def _pydantic_errors(prefix: str, exc: ValidationError) -> list[tuple[str, str]]:
+    out = []
+    for e in exc.errors():
+        msg = e["msg"]
+        if e["type"] == "extra_forbidden":
+            msg = "unknown key"
+        elif "input" in e and e["type"] not in ("missing",) and not isinstance(e["input"], dict):
+            msg = f"{msg} (got {e['input']!r})"
+        out.append((_loc(prefix, e["loc"]), msg))
+    return out
+
+
+def parse_config(
+    data: dict[str, Any], registry: Registry, *, file: str = "<config>", config_dir: Path | None = None
+) -> Config:
+    """Validate a configuration already read into a dict."""
+    errors: list[tuple[str, str]] = []
+    cfg = Config()
+    for key in data:
+        if key not in ("edged", "router", *ROLES):
+            errors.append((key, "unknown section (expected edged, router, inputs, estimators, outputs)"))
+    for key, model in (("edged", CoreConfig), ("router", RouterConfig)):
+        section = data.get(key, {})
+        if not isinstance(section, dict):
+            errors.append((key, "must be a table"))
+            continue
+        try:
+            setattr(cfg, key, model.model_validate(section))
+        except ValidationError as exc:
+            errors += _pydantic_errors(key, exc)
+    ctx = {"config_dir": config_dir or Path.cwd()}
+    for role in ROLES:
+        section = data.get(role, {})
+        if not isinstance(section, dict):
+            errors.append((role, "must be a table of named plugins"))
+            continue
+        for name, body in section.items():
+            where = f"{role}.{name}"
+            if not _NAME_RE.match(name):
+                errors.append((where, "name: letters, digits, '_', '-' and '.' only"))
+                continue
+            if not isinstance(body, dict):
+                errors.append((where, "must be a table"))
+                continue
+            type_ = body.get("type")
+            if not isinstance(type_, str):
+                errors.append((f"{where}.type", "missing: which plugin to use"))
+                continue
+            try:
+                cls = registry.get(role, type_)
+            except PluginNotFound as exc:
+                errors.append((f"{where}.type", str(exc)))
+                continue
+            try:
+                getattr(cfg, role)[name] = cls.Config.model_validate(body, context=ctx)
+            except ValidationError as exc:
+                errors += _pydantic_errors(where, exc)
+    if errors:
+        raise ConfigError(file, errors)
+    return cfg
+
+
+def load_config(path: str | Path, registry: Registry) -> Config:
+    """Read and validate a TOML configuration file; raise ConfigError naming the key."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(str(p), [("", f"cannot read: {exc.strerror or exc}")]) from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(p), [("", f"not UTF-8 text: {exc}")]) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(p), [("", f"TOML syntax: {exc}")]) from None
+    cfg = parse_config(data, registry, file=str(p), config_dir=p.resolve().parent)
+    cfg.path = p
+    cfg.text = text
+    return cfg
+
+
+def default_config(registry: Registry, vessel_id: str = "vessel") -> Config:
+    """The built-in configuration: every installed estimator on, defaults everywhere."""
+    data: dict[str, Any] = {
+        "edged": {"vessel_id": vessel_id},
+        "estimators": {name: {"type": name} for name in registry.names("estimators")},
+    }
+    return parse_config(data, registry, file="<built-in default>")

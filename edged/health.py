@@ -1,0 +1,110 @@
+"""Health: per-component state, counters, last error and rates.
+
+Each plugin instance (and the router) owns one `ComponentHealth`. Counters are plain
+dict increments (cheap enough for the hot path); state changes and new errors are
+logged once per change, never once per message (DESIGN §8).
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from .clock import Clock
+
+log = logging.getLogger("edged.health")
+
+
+class ComponentHealth:
+    """State and counters of one component; see DESIGN §6 `health`."""
+
+    __slots__ = (
+        "name",
+        "role",
+        "type",
+        "state",
+        "counters",
+        "last_error",
+        "last_error_t",
+        "restarts",
+        "info",
+        "_clock",
+        "_prev",
+        "_prev_t",
+    )
+
+    def __init__(self, name: str, role: str, type_: str, clock: Clock) -> None:
+        self.name = name
+        self.role = role
+        self.type = type_
+        self.state = "created"
+        self.counters: dict[str, int] = {}
+        self.last_error: str | None = None
+        self.last_error_t: float | None = None
+        self.restarts = 0
+        self.info: dict[str, Any] = {}
+        self._clock = clock
+        self._prev: dict[str, int] = {}
+        self._prev_t: float | None = None
+
+    def count(self, key: str, n: int = 1) -> None:
+        c = self.counters
+        c[key] = c.get(key, 0) + n
+
+    def set_state(self, state: str, reason: str | None = None) -> None:
+        if state == self.state:
+            return
+        self.state = state
+        extra = f" reason={reason!r}" if reason else ""
+        log.info("component=%s role=%s state=%s%s", self.name, self.role, state, extra)
+
+    def error(self, message: str) -> None:
+        """Record an error; logs only when it differs from the previous one."""
+        if message != self.last_error:
+            log.warning("component=%s role=%s error=%r", self.name, self.role, message)
+        self.last_error = message
+        self.last_error_t = self._clock.now()
+        self.count("errors")
+
+    def snapshot(self) -> dict[str, Any]:
+        now = self._clock.monotonic()
+        rates: dict[str, float] = {}
+        if self._prev_t is not None and now > self._prev_t:
+            dt = now - self._prev_t
+            for k, v in self.counters.items():
+                rates[k] = round((v - self._prev.get(k, 0)) / dt, 3)
+        self._prev = dict(self.counters)
+        self._prev_t = now
+        return {
+            "role": self.role,
+            "type": self.type,
+            "state": self.state,
+            "counters": dict(self.counters),
+            "rates": rates,
+            "last_error": self.last_error,
+            "last_error_t": self.last_error_t,
+            "restarts": self.restarts,
+            **({"info": dict(self.info)} if self.info else {}),
+        }
+
+
+class HealthRegistry:
+    """All components' health; `snapshot()` is what outputs publish at 1 Hz."""
+
+    def __init__(self, clock: Clock) -> None:
+        self.clock = clock
+        self.components: dict[str, ComponentHealth] = {}
+
+    def component(self, name: str, role: str, type_: str = "") -> ComponentHealth:
+        key = f"{role}:{name}"
+        h = self.components.get(key)
+        if h is None:
+            h = ComponentHealth(name, role, type_, self.clock)
+            self.components[key] = h
+        return h
+
+    def snapshot(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"t": self.clock.now()}
+        for h in self.components.values():
+            out.setdefault(h.role + "s", {})[h.name] = h.snapshot()
+        return out

@@ -1,0 +1,220 @@
+"""The plugin contract: every input, estimator and output is one of these.
+
+Shaped after Signal K's plugin contract: a plugin has a type name (its entry point),
+a configuration schema (a pydantic model; unknown keys are errors), a lifecycle the
+runtime supervises, and health it reports. Three roles:
+
+- `InputPlugin`: owns a transport and a decoder; emits raw records and measurements.
+  Its class also says how to replay files of its format (`sniff`, `open_replay`) and
+  how to decode raw records again (`make_decoder`), so that replay uses the very
+  decoders the live input uses.
+- `EstimatorPlugin`: makes a synchronous `EstimatorCore` (`step(record) -> [Estimate]`);
+  the runtime hosts it in a worker with its own queue.
+- `OutputPlugin`: receives batches of records (raw, measurements, estimates, health).
+
+Plugins are discovered through the entry point groups `edged.inputs`,
+`edged.estimators` and `edged.outputs`; CLI subcommands a plugin implements are in
+`edged.commands`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Protocol, runtime_checkable
+
+from pydantic import BaseModel, ConfigDict
+
+from .clock import Clock
+from .health import ComponentHealth
+from .records import Estimate, Measurement, RawRecord
+
+__all__ = [
+    "PluginConfig",
+    "InputConfig",
+    "EstimatorConfig",
+    "OutputConfig",
+    "PluginContext",
+    "Plugin",
+    "Decoder",
+    "InputPlugin",
+    "EstimatorCore",
+    "EstimatorPlugin",
+    "OutputPlugin",
+    "ReplayOptions",
+    "Command",
+]
+
+
+class PluginConfig(BaseModel):
+    """Base of every plugin's configuration section. Unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    type: str
+    enabled: bool = True
+
+
+class InputConfig(PluginConfig):
+    pass
+
+
+class EstimatorConfig(PluginConfig):
+    queue_size: int = 10_000
+    #: Measurements up to this many seconds older than the newest are re-ordered
+    #: before the core sees them; older ones are late (counted, dropped).
+    reorder_window: float = 0.0
+    #: Only measurements from these sources (default: all, with source priority).
+    sources: list[str] | None = None
+
+
+class OutputConfig(PluginConfig):
+    queue_size: int = 100_000
+
+
+@dataclass
+class PluginContext:
+    """What the runtime gives a plugin instance: its name, time, health, the router."""
+
+    name: str
+    clock: Clock
+    health: ComponentHealth
+    publish: Callable[[Any], None]
+    vessel_id: str = "vessel"
+    config_dir: Path = field(default_factory=Path.cwd)
+    #: Options of the whole daemon a plugin may read (e.g. `zenoh_config`, `record_dir`).
+    options: dict[str, Any] = field(default_factory=dict)
+    #: Set for inputs: the decoder the runtime made with `make_decoder`.
+    decoder: "Decoder | None" = None
+
+    @property
+    def log(self) -> logging.Logger:
+        return logging.getLogger(f"edged.{self.name}")
+
+    def ingest(self, raw: RawRecord) -> None:
+        """Publish a raw record and every measurement its decoder makes of it."""
+        self.publish(raw)
+        dec = self.decoder
+        if dec is not None:
+            for m in dec.decode(raw):
+                self.publish(m)
+
+
+class Plugin:
+    """Base of all plugins. Subclasses set `Config` and implement `run`."""
+
+    #: The configuration schema of this plugin's section.
+    Config: ClassVar[type[PluginConfig]] = PluginConfig
+    #: Human description for `--help`-like listings.
+    description: ClassVar[str] = ""
+
+    def __init__(self, config: Any, ctx: PluginContext) -> None:
+        self.config = config
+        self.ctx = ctx
+
+    def status(self) -> dict[str, Any]:
+        """Extra plugin-specific status merged into health `info`."""
+        return {}
+
+
+@runtime_checkable
+class Decoder(Protocol):
+    """Turns raw records of one protocol and source into measurements.
+
+    Stateful (fast-packet reassembly, variation from an earlier sentence) but never
+    reads the clock: time comes from `raw.t`. Rejections are counted in the health it
+    was made with; it never raises on bad input.
+    """
+
+    def decode(self, raw: RawRecord) -> list[Measurement]: ...
+
+
+@dataclass
+class ReplayOptions:
+    """Options of `edged replay` an input's file reader may need."""
+
+    date: str | None = None  # YYYY-MM-DD for NMEA logs without a date
+    config: Any = None  # the input's configuration section when one is given
+    path: Path | None = None  # the file being read, for messages
+
+
+class InputPlugin(Plugin):
+    Config: ClassVar[type[PluginConfig]] = InputConfig
+    #: Decoder family of the raw records this input makes, e.g. "nmea0183", "can".
+    protocol: ClassVar[str] = ""
+
+    async def run(self) -> None:
+        """Read the transport until cancelled; raising makes the runtime restart it."""
+        raise NotImplementedError
+
+    @classmethod
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Decoder:
+        raise NotImplementedError
+
+    @classmethod
+    def sniff(cls, head: bytes) -> bool:
+        """True when a file starting with `head` is of this input's format."""
+        return False
+
+    @classmethod
+    def open_replay(
+        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
+    ) -> Iterator[RawRecord]:
+        """Raw records of a log file in file order, stamped with the log's time.
+
+        `stream` is the file opened in binary mode (the runtime counts the bytes read
+        for its progress bar); `source` is the input name (the file's stem unless the
+        configuration names it). Lines or frames that cannot be read are counted in
+        `health` under `rejected.<reason>` and skipped; the iterator never raises on
+        bad content. Records may carry other sources than `source` (an MCAP file holds
+        many); each is decoded by the decoder of its own `protocol` and `source`.
+        """
+        raise NotImplementedError
+
+
+class EstimatorCore(Protocol):
+    """A synchronous estimator: the same stamped inputs give the same estimates."""
+
+    #: Route keys it consumes: measurement kinds and/or `est/<name>`.
+    inputs: frozenset[str]
+
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]: ...
+
+
+class EstimatorPlugin(Plugin):
+    Config: ClassVar[type[PluginConfig]] = EstimatorConfig
+
+    def make_core(self) -> EstimatorCore:
+        """A fresh core; called at start and after every failure."""
+        raise NotImplementedError
+
+
+class OutputPlugin(Plugin):
+    Config: ClassVar[type[PluginConfig]] = OutputConfig
+    #: Route keys this output wants; None = everything.
+    keys: ClassVar[frozenset[str] | None] = None
+
+    async def open(self) -> None:
+        """Open sessions and files; raising makes the runtime retry with backoff."""
+
+    def write(self, batch: list[Any]) -> None:
+        """Take a batch of records (in publish order). Must not block for long."""
+        raise NotImplementedError
+
+    def flush(self) -> None:
+        """Called about once a second and before close."""
+
+    def rotate(self) -> None:
+        """SIGHUP: start new files."""
+
+    async def close(self) -> None:
+        """Flush and release everything; called once on shutdown or before restart."""
+
+
+class Command(Protocol):
+    """A CLI subcommand implemented by a plugin (entry point group `edged.commands`)."""
+
+    def __call__(self, args: argparse.Namespace) -> int: ...
+

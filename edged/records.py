@@ -1,0 +1,321 @@
+"""The records that flow through edged: measurements, estimates, raw records, health.
+
+This module is the single definition of every measurement kind (DESIGN §2): its name,
+its value fields and their SI units. Decoders map onto these kinds; estimators and
+outputs read from them. Nothing else in the code base spells a kind's fields.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+__all__ = [
+    "Field",
+    "KindSpec",
+    "KINDS",
+    "Measurement",
+    "Estimate",
+    "RawRecord",
+    "HealthRecord",
+    "Record",
+    "InvalidMeasurement",
+    "validate_measurement",
+    "measurement_to_json",
+    "TWO_PI",
+    "wrap_angle",
+]
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(a: float) -> float:
+    """Map an angle onto [0, 2π), the convention of every angle in a measurement."""
+    a = math.fmod(a, TWO_PI)
+    if a < 0.0:
+        a += TWO_PI
+    # fmod of a value a hair below 2π plus 2π may round to 2π itself.
+    return 0.0 if a >= TWO_PI else a
+
+
+@dataclass(frozen=True, slots=True)
+class Field:
+    """One value of a measurement kind.
+
+    `lo`/`hi` are the physically possible bounds: inputs reject what lies outside them
+    (DESIGN §8: "reject what cannot be true"), estimators judge the rest.
+    """
+
+    name: str
+    unit: str
+    required: bool = True
+    lo: float | None = None
+    hi: float | None = None
+    angle: bool = False  # true angle in [0, 2π)
+
+
+@dataclass(frozen=True, slots=True)
+class KindSpec:
+    name: str
+    fields: tuple[Field, ...]
+    doc: str
+
+    @property
+    def field_names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.fields)
+
+
+def _k(name: str, doc: str, *fields: Field) -> KindSpec:
+    return KindSpec(name, fields, doc)
+
+
+_ANGLE_BOUND = dict(lo=0.0, hi=TWO_PI)
+
+#: Every measurement kind, DESIGN §2. SI units: m, m/s, m/s², rad, rad/s.
+KINDS: dict[str, KindSpec] = {
+    k.name: k
+    for k in (
+        _k(
+            "position",
+            "Geodetic position (WGS-84).",
+            Field("lat", "deg", lo=-90.0, hi=90.0),
+            Field("lon", "deg", lo=-180.0, hi=180.0),
+            Field("fix_quality", "1", required=False, lo=0),
+            Field("hdop", "1", required=False, lo=0.0),
+            Field("sats", "1", required=False, lo=0),
+        ),
+        _k(
+            "velocity_ground",
+            "Speed and course over ground.",
+            Field("sog", "m/s", lo=0.0, hi=100.0),
+            Field("cog", "rad", required=False, angle=True, **_ANGLE_BOUND),
+        ),
+        _k("heading", "True heading.", Field("heading", "rad", angle=True, **_ANGLE_BOUND)),
+        _k(
+            "heading_magnetic",
+            "Magnetic heading, used only when no variation is known.",
+            Field("heading", "rad", angle=True, **_ANGLE_BOUND),
+        ),
+        _k("yaw_rate", "Rate of turn, + to starboard.", Field("r", "rad/s", lo=-10.0, hi=10.0)),
+        _k(
+            "accel_body",
+            "Body-frame accelerometer reading with gravity removed (x fwd, y stbd, z down).",
+            Field("ax", "m/s^2", lo=-100.0, hi=100.0),
+            Field("ay", "m/s^2", lo=-100.0, hi=100.0),
+            Field("az", "m/s^2", required=False, lo=-100.0, hi=100.0),
+        ),
+        _k(
+            "attitude",
+            "Roll (+ starboard down), pitch (+ bow up), heave (+ down).",
+            Field("roll", "rad", lo=-math.pi, hi=math.pi),
+            Field("pitch", "rad", lo=-math.pi, hi=math.pi),
+            Field("heave", "m", required=False, lo=-100.0, hi=100.0),
+        ),
+        _k(
+            "water_speed",
+            "Speed through water from a log.",
+            Field("stw_long", "m/s", lo=-100.0, hi=100.0),
+            Field("stw_trans", "m/s", required=False, lo=-100.0, hi=100.0),
+        ),
+        _k(
+            "current",
+            "Sea current: set (direction it flows toward) and drift (speed).",
+            Field("set", "rad", angle=True, **_ANGLE_BOUND),
+            Field("drift", "m/s", lo=0.0, hi=20.0),
+        ),
+        _k(
+            "depth",
+            "Depth below transducer; offset + transducer to waterline, − to keel.",
+            Field("depth", "m", lo=0.0, hi=12000.0),
+            Field("offset", "m", required=False),
+        ),
+        _k(
+            "draft",
+            "Draft at one mark; status 0 ok, 1 fault, 2 out of water.",
+            Field("mark", "name"),
+            Field("draft", "m", lo=0.0, hi=70.0),
+            Field("status", "1", lo=0, hi=255),
+        ),
+    )
+}
+
+
+class Measurement:
+    """A canonical, stamped reading of one kind from one source (DESIGN §2).
+
+    Plain `__slots__` class rather than a dataclass: millions of these are made per
+    voyage and the router's budget is a few microseconds each.
+    """
+
+    __slots__ = ("kind", "source", "t", "values", "t_src")
+
+    def __init__(
+        self,
+        kind: str,
+        source: str,
+        t: float,
+        values: dict[str, Any],
+        t_src: float | None = None,
+    ) -> None:
+        self.kind = kind
+        self.source = source
+        self.t = t
+        self.values = values
+        self.t_src = t_src
+
+    @property
+    def route_key(self) -> str:
+        return self.kind
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Measurement):
+            return NotImplemented
+        return (
+            self.kind == other.kind
+            and self.source == other.source
+            and self.t == other.t
+            and self.t_src == other.t_src
+            and self.values == other.values
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Measurement({self.kind!r}, {self.source!r}, t={self.t!r}, "
+            f"values={self.values!r}, t_src={self.t_src!r})"
+        )
+
+
+class Estimate:
+    """A fused result of an estimator worker (`stw`, `manoeuvre`, `draft`).
+
+    Estimates are routed like measurements under the key `est/<name>`, so that one
+    estimator may consume another's output (the draft worker uses the STW estimate).
+    """
+
+    __slots__ = ("name", "source", "t", "values")
+
+    def __init__(self, name: str, source: str, t: float, values: dict[str, Any]) -> None:
+        self.name = name
+        self.source = source
+        self.t = t
+        self.values = values
+
+    @property
+    def route_key(self) -> str:
+        return "est/" + self.name
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Estimate):
+            return NotImplemented
+        return (self.name, self.source, self.t, self.values) == (
+            other.name,
+            other.source,
+            other.t,
+            other.values,
+        )
+
+    def __repr__(self) -> str:
+        return f"Estimate({self.name!r}, {self.source!r}, t={self.t!r}, values={self.values!r})"
+
+
+class RawRecord:
+    """The exact bytes an input received (a sentence, a CAN frame), for recording.
+
+    `protocol` names the decoder family that can turn it back into measurements
+    (e.g. `nmea0183`, `can`): replaying a recording feeds raw records to the same
+    decoders the live input used. `meta` holds what the bytes alone do not say
+    (a CAN identifier, a TAG block), as JSON-able values.
+    """
+
+    __slots__ = ("protocol", "source", "t", "data", "meta")
+
+    route_key = "raw"
+
+    def __init__(
+        self,
+        protocol: str,
+        source: str,
+        t: float,
+        data: bytes,
+        meta: Mapping[str, Any] | None = None,
+    ) -> None:
+        self.protocol = protocol
+        self.source = source
+        self.t = t
+        self.data = data
+        self.meta = meta
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, RawRecord):
+            return NotImplemented
+        return (self.protocol, self.source, self.t, self.data, self.meta) == (
+            other.protocol,
+            other.source,
+            other.t,
+            other.data,
+            other.meta,
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"RawRecord({self.protocol!r}, {self.source!r}, t={self.t!r}, "
+            f"data={self.data!r}, meta={self.meta!r})"
+        )
+
+
+class HealthRecord:
+    """A health snapshot (DESIGN §6 `health`), emitted at 1 Hz to the outputs."""
+
+    __slots__ = ("t", "values")
+
+    route_key = "health"
+    source = "edged"
+
+    def __init__(self, t: float, values: dict[str, Any]) -> None:
+        self.t = t
+        self.values = values
+
+
+Record = Measurement | Estimate | RawRecord | HealthRecord
+
+
+class InvalidMeasurement(ValueError):
+    """A measurement whose values cannot be true (DESIGN §8)."""
+
+
+def validate_measurement(kind: str, values: Mapping[str, Any]) -> None:
+    """Raise InvalidMeasurement naming the field when `values` cannot be true.
+
+    Decoders call this before emitting, so that every input rejects the same things
+    (NaN, out of physical range, missing required fields, unknown fields) the same way.
+    """
+    spec = KINDS.get(kind)
+    if spec is None:
+        raise InvalidMeasurement(f"unknown kind {kind!r}")
+    for f in spec.fields:
+        v = values.get(f.name)
+        if v is None:
+            if f.required:
+                raise InvalidMeasurement(f"{kind}.{f.name} missing")
+            continue
+        if isinstance(v, str):
+            continue
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise InvalidMeasurement(f"{kind}.{f.name} not a number: {v!r}") from None
+        if math.isnan(x) or math.isinf(x):
+            raise InvalidMeasurement(f"{kind}.{f.name} is {x}")
+        if (f.lo is not None and x < f.lo) or (f.hi is not None and x > f.hi):
+            raise InvalidMeasurement(f"{kind}.{f.name}={x} outside [{f.lo}, {f.hi}]")
+    extra = set(values) - set(spec.field_names)
+    if extra:
+        raise InvalidMeasurement(f"{kind}: unknown field(s) {sorted(extra)}")
+
+
+def measurement_to_json(m: Measurement) -> dict[str, Any]:
+    """The JSON form of DESIGN §2: `{"t", "t_src", "source", <values>}`."""
+    d: dict[str, Any] = {"t": m.t, "t_src": m.t_src, "source": m.source}
+    d.update(m.values)
+    return d
