@@ -45,6 +45,8 @@ class CoreConfig(BaseModel):
 
     vessel_id: str = "vessel"
     log_level: Literal["debug", "info", "warning", "error"] = "info"
+    #: Also log to this file (reopened on SIGHUP); stderr is always used.
+    log_file: str | None = None
     #: Seconds between health snapshots sent to the outputs.
     health_interval: float = Field(1.0, gt=0)
     #: Seconds the shutdown may take before outputs are abandoned.

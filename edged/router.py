@@ -17,7 +17,7 @@ import asyncio
 import logging
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable
 
 from .health import ComponentHealth
 
@@ -90,6 +90,8 @@ class Subscription:
     sources: frozenset[str] | None = None
     preferred_only: bool = True
     reorder_window: float | None = None
+    #: Called in the publisher's stack instead of queueing (replay: deterministic order).
+    handler: Callable[[Any], None] | None = None
     newest_t: float = field(default=float("-inf"))
     overflow: int = 0
     late: int = 0
@@ -158,6 +160,7 @@ class Router:
         sources: Iterable[str] | None = None,
         preferred_only: bool = True,
         reorder_window: float | None = None,
+        handler: Callable[[Any], None] | None = None,
     ) -> Subscription:
         sub = Subscription(
             name=name,
@@ -167,6 +170,7 @@ class Router:
             sources=None if sources is None else frozenset(sources),
             preferred_only=preferred_only,
             reorder_window=reorder_window,
+            handler=handler,
         )
         self._subs.append(sub)
         self._by_key.clear()
@@ -214,14 +218,13 @@ class Router:
                     continue
                 if t > sub.newest_t:
                     sub.newest_t = t
-            if not sub.queue.put(rec):
+            if sub.handler is not None:
+                sub.handler(rec)
+            elif not sub.queue.put(rec):
                 sub.overflow += 1
                 if sub.health is not None:
                     sub.health.count("overflow")
 
-    def backlog(self) -> int:
-        """Largest queue fill, for flow control in replay."""
-        return max((len(s.queue) for s in self._subs), default=0)
 
     def subscriptions(self) -> list[Subscription]:
         return list(self._subs)

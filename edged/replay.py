@@ -1,0 +1,237 @@
+"""Replay: recorded logs through the very same decoders, workers and outputs.
+
+Each file is recognised by content (`sniff` of the plugin classes), read by its
+plugin's `open_replay`, and the raw records of all files are merged in time order.
+Every raw record is published (so `--record` records it again) and decoded by the
+decoder of its protocol and source, made once and kept for the whole replay so that
+state (fast-packet reassembly, the date of an NMEA log) carries across files.
+Time is the data's: the replay clock follows the records. `speed` 0 runs as fast as
+possible; N > 0 paces the records at N times real time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import heapq
+import io
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, BinaryIO, Callable, Iterator
+
+from .clock import ReplayClock
+from .health import ComponentHealth
+from .plugin import Decoder, ReplayOptions
+from .records import HealthRecord, RawRecord
+from .registry import Registry
+from .runtime import Runtime
+
+log = logging.getLogger("edged.replay")
+
+HEAD_BYTES = 4096
+#: Records between two looks at the outputs' queues and the progress bar.
+BATCH = 512
+
+
+class UnknownFormat(ValueError):
+    """A file no installed plugin can read (names the file)."""
+
+
+class CountingReader(io.RawIOBase):
+    """Wraps a binary file to count the bytes read, for the progress bar."""
+
+    def __init__(self, f: BinaryIO) -> None:
+        self._f = f
+        self.count = 0
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return self._f.seekable()
+
+    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        return self._f.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._f.tell()
+
+    def readinto(self, b: Any) -> int:
+        n = self._f.readinto(b)  # type: ignore[attr-defined]
+        if n:
+            self.count += n
+        return n or 0
+
+    def close(self) -> None:
+        self._f.close()
+        super().close()
+
+
+def replay_readers(registry: Registry) -> list[tuple[str, Any]]:
+    """Every plugin class (input or output) that can read files for replay."""
+    out = []
+    for role in ("inputs", "outputs"):
+        for name, cls in registry.all(role).items():
+            if callable(getattr(cls, "sniff", None)) and callable(getattr(cls, "open_replay", None)):
+                out.append((name, cls))
+    return out
+
+
+def detect(path: Path, registry: Registry) -> tuple[str, Any]:
+    """The plugin class that reads `path`, recognised by its first bytes."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(HEAD_BYTES)
+    except OSError as exc:
+        raise UnknownFormat(f"{path}: cannot read: {exc.strerror or exc}") from None
+    readers = replay_readers(registry)
+    for name, cls in readers:
+        try:
+            if cls.sniff(head):
+                return name, cls
+        except Exception as exc:  # a plugin's sniff must not decide for the others
+            log.warning("plugin=%s sniff failed on %s: %s", name, path, exc)
+    kinds = ", ".join(n for n, _ in readers) or "none installed"
+    raise UnknownFormat(f"{path}: format not recognised (readers: {kinds})")
+
+
+@dataclass
+class ReplayStats:
+    records: int = 0
+    measurements: dict[tuple[str, str], int] = field(default_factory=dict)
+    t_first: float | None = None
+    t_last: float | None = None
+    undecodable: dict[str, int] = field(default_factory=dict)
+
+
+class Replayer:
+    """Feeds files through a replay-mode Runtime."""
+
+    def __init__(
+        self,
+        runtime: Runtime,
+        paths: list[Path],
+        *,
+        speed: float = 0.0,
+        date: str | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> None:
+        if not isinstance(runtime.clock, ReplayClock):
+            raise TypeError("replay needs a ReplayClock")
+        self.rt = runtime
+        self.clock: ReplayClock = runtime.clock
+        self.paths = paths
+        self.speed = speed
+        self.date = date
+        self.progress = progress
+        self.stats = ReplayStats()
+        self._decoders: dict[tuple[str, str], Decoder | None] = {}
+        self._protocols = {
+            getattr(cls, "protocol", ""): cls for cls in runtime.registry.all("inputs").values()
+        }
+        self._streams: list[CountingReader] = []
+        self.total_bytes = 0
+
+    def _health(self, source: str, type_: str) -> ComponentHealth:
+        return self.rt.health.component(source, "input", type_)
+
+    def _open(self, path: Path) -> Iterator[RawRecord]:
+        name, cls = detect(path, self.rt.registry)
+        source = path.stem
+        in_cfg = self.rt.config.inputs.get(source)
+        f = CountingReader(open(path, "rb"))  # closed in run()
+        self._streams.append(f)
+        self.total_bytes += path.stat().st_size
+        health = self._health(source, name)
+        opts = ReplayOptions(date=self.date, config=in_cfg, path=path)
+        return cls.open_replay(io.BufferedReader(f, 1 << 16), source, health, opts)
+
+    def _decoder(self, protocol: str, source: str) -> Decoder | None:
+        key = (protocol, source)
+        if key in self._decoders:
+            return self._decoders[key]
+        cls = self._protocols.get(protocol)
+        dec = None
+        if cls is not None:
+            cfg = self.rt.config.inputs.get(source)
+            if cfg is not None and getattr(cfg, "type", None) != _type_name(self.rt.registry, cls):
+                cfg = None
+            try:
+                dec = cls.make_decoder(source, cfg, self._health(source, protocol))
+            except NotImplementedError:
+                dec = None
+        self._decoders[key] = dec
+        return dec
+
+    async def run(self) -> ReplayStats:
+        iters = [self._open(p) for p in self.paths]
+        merged = heapq.merge(*iters, key=_t) if len(iters) > 1 else iters[0]
+        rt = self.rt
+        publish = rt.router.publish
+        clock = self.clock
+        stats = self.stats
+        meas = stats.measurements
+        interval = rt.config.edged.health_interval
+        next_tick: float | None = None
+        loop = asyncio.get_running_loop()
+        wall0 = loop.time()
+        t0: float | None = None
+        n = 0
+        try:
+            for raw in merged:
+                t = raw.t
+                if t0 is None:
+                    t0 = t
+                    stats.t_first = t
+                    next_tick = t + interval
+                clock.advance_to(t)
+                if self.speed > 0:
+                    delay = wall0 + (t - t0) / self.speed - loop.time()
+                    if delay > 0:
+                        await asyncio.sleep(delay)
+                publish(raw)
+                dec = self._decoder(raw.protocol, raw.source)
+                if dec is None:
+                    stats.undecodable[raw.protocol] = stats.undecodable.get(raw.protocol, 0) + 1
+                else:
+                    for m in dec.decode(raw):
+                        key = (m.source, m.kind)
+                        meas[key] = meas.get(key, 0) + 1
+                        publish(m)
+                n += 1
+                if next_tick is not None and clock.now() >= next_tick:
+                    rt.tick()
+                    next_tick = clock.now() + interval
+                if n % BATCH == 0:
+                    await self._yield()
+            stats.records = n
+            stats.t_last = clock.now() if t0 is not None else None
+            for w in rt.workers:
+                w.flush()
+            snap = rt.health_snapshot()
+            publish(HealthRecord(snap["t"], snap))
+            await self._yield(final=True)
+        finally:
+            for s in self._streams:
+                s.close()
+        return stats
+
+    async def _yield(self, final: bool = False) -> None:
+        """Let the outputs work; wait while their queues are more than half full."""
+        if self.progress is not None:
+            self.progress(sum(s.count for s in self._streams), self.total_bytes)
+        await asyncio.sleep(0)
+        limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in self.rt.outputs), default=0)
+        while self.rt.outputs and self.rt.output_backlog() > limit:
+            await asyncio.sleep(0)
+
+
+def _t(r: RawRecord) -> float:
+    return r.t
+
+
+def _type_name(registry: Registry, cls: Any) -> str | None:
+    for name, c in registry.all("inputs").items():
+        if c is cls:
+            return name
+    return None
