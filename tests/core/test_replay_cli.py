@@ -1,0 +1,139 @@
+"""Replay through the core driver and the CLI's exit codes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from core_dummies import ListOutput
+
+from edged.cli import build_parser, main
+from edged.commands import dispatch
+from edged.records import Estimate, Measurement, RawRecord
+
+CFG = """
+[estimators.sum]
+type = "sum"
+[estimators.chain]
+type = "chain"
+[outputs.rec]
+type = "list"
+"""
+
+
+def _run(registry, *argv: str) -> int:
+    return dispatch(build_parser().parse_args(list(argv)), registry)
+
+
+@pytest.fixture
+def logs(tmp_path: Path) -> tuple[Path, Path]:
+    a = tmp_path / "gyro.log"
+    a.write_text("#dummy\n1.0 yaw_rate r=1\n3.0 yaw_rate r=2\nnot-a-time x\n5.0 yaw_rate r=4\n")
+    b = tmp_path / "imu.log"
+    b.write_text("#dummy\n2.0 yaw_rate r=10\n4.0 yaw_rate garbage\n6.0 heading heading=1\n")
+    return a, b
+
+
+def _replay(registry, write_config, logs, *extra: str) -> list:
+    cfg = write_config(CFG)
+    ListOutput.instances.clear()
+    rc = _run(registry, "replay", str(logs[0]), str(logs[1]), "-c", str(cfg), "--no-zenoh", "--no-progress", *extra)
+    assert rc == 0
+    return ListOutput.instances[0].records
+
+
+def test_replay_merges_files_in_time_order_and_summarises(registry, write_config, logs, capsys):
+    recs = _replay(registry, write_config, logs)
+    raws = [r for r in recs if isinstance(r, RawRecord)]
+    assert [r.t for r in raws] == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    meas = [r for r in recs if isinstance(r, Measurement)]
+    assert [(m.source, m.t) for m in meas] == [
+        ("gyro", 1.0), ("imu", 2.0), ("gyro", 3.0), ("gyro", 5.0), ("imu", 6.0)
+    ]
+    sums = [r.values["total"] for r in recs if isinstance(r, Estimate) and r.name == "sum"]
+    assert sums == [1.0, 11.0, 13.0, 17.0]
+    out = capsys.readouterr().out
+    assert "replayed 6 records, 5.0 s of data" in out
+    assert "rejected.no_time" in out and "rejected.syntax" in out
+    assert any(line.split() == ["imu", "heading", "1"] for line in out.splitlines())
+
+
+def test_replay_is_deterministic_at_any_speed(registry, write_config, logs):
+    def estimates(*extra: str) -> list:
+        return [(r.name, r.t, r.values) for r in _replay(registry, write_config, logs, *extra) if isinstance(r, Estimate)]
+
+    fast = estimates()
+    assert fast == estimates("--speed", "50")
+    chain = [v["trace"] for n, _, v in fast if n == "chain"]
+    # depth first: the upstream worker (configured first) steps and its estimate
+    # reaches the chained worker before the measurement itself does
+    assert chain[-1] == "eyeyeyey"
+
+
+def test_replay_unknown_format_and_missing_file_exit_2(registry, tmp_path, capsys):
+    junk = tmp_path / "junk.bin"
+    junk.write_bytes(b"\x00\x01garbage")
+    assert _run(registry, "replay", str(junk), "--no-zenoh", "--no-progress") == 2
+    assert f"{junk}: format not recognised" in capsys.readouterr().err
+    assert _run(registry, "replay", str(tmp_path / "nope.log"), "--no-zenoh") == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_replay_negative_speed_is_usage_error(registry, logs, capsys):
+    assert _run(registry, "replay", str(logs[0]), "--speed", "-1", "--no-zenoh") == 2
+
+
+def test_replay_record_without_recorder_plugin_is_usage_error(registry, logs, capsys):
+    assert _run(registry, "replay", str(logs[0]), "--no-zenoh", "--record", "x.mcap") == 2
+    assert "--record" in capsys.readouterr().err
+
+
+def test_command_without_plugin_exits_1(registry, capsys):
+    assert _run(registry, "inspect", "x.mcap") == 1
+    assert "not available" in capsys.readouterr().err
+
+
+def test_version_and_usage_exit_codes(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and "edged" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        main(["frobnicate"])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit) as e:
+        main(["replay"])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    helptext = capsys.readouterr().out
+    for cmd in ("run", "demo", "replay", "sim", "inspect", "export", "plot", "recover", "router", "fleet", "check-config"):
+        assert cmd in helptext
+
+
+def test_daemon_process_stops_on_sigterm_with_exit_0(tmp_path):
+    cfg = tmp_path / "empty.toml"
+    cfg.write_text('[edged]\nvessel_id = "proc-test"\n')
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "edged.cli", "run", "-c", str(cfg)],
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        for line in proc.stderr:  # wait for the started line, not a sleep
+            if "event=started" in line:
+                break
+        else:
+            raise AssertionError("daemon never started")
+        proc.send_signal(signal.SIGTERM)
+        rest = proc.stderr.read()
+        assert proc.wait(timeout=10) == 0
+        assert "event=stopped" in rest
+    finally:
+        if proc.poll() is None:
+            proc.kill()

@@ -1,0 +1,173 @@
+"""Dummy plugins exercising the core without any sensor, transport or filter."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+from typing import Any, BinaryIO, Iterator
+
+from edged.plugin import (
+    EstimatorPlugin,
+    InputConfig,
+    InputPlugin,
+    OutputConfig,
+    OutputPlugin,
+    ReplayOptions,
+)
+from edged.health import ComponentHealth
+from edged.records import Estimate, Measurement, RawRecord
+from edged.registry import Registry
+
+
+class DummyDecoder:
+    """`<t> <kind> <field>=<value>` lines -> one measurement each."""
+
+    def __init__(self, source: str, health: ComponentHealth) -> None:
+        self.source = source
+        self.health = health
+
+    def decode(self, raw: RawRecord) -> list[Measurement]:
+        try:
+            _, kind, kv = raw.data.decode().split()
+            k, v = kv.split("=")
+            m = Measurement(kind, self.source, raw.t, {k: float(v)})
+        except ValueError:
+            self.health.count("rejected.syntax")
+            return []
+        self.health.count(f"measurements.{kind}")
+        return [m]
+
+
+class DummyInputConfig(InputConfig):
+    lines: list[str] = []
+    fail_times: int = 0
+
+
+class DummyInput(InputPlugin):
+    """Emits its configured lines, optionally failing the first `fail_times` runs."""
+
+    Config = DummyInputConfig
+    protocol = "dummy"
+    runs = 0
+
+    async def run(self) -> None:
+        type(self).runs += 1
+        if type(self).runs <= self.config.fail_times:
+            raise RuntimeError(f"boom {type(self).runs}")
+        for line in self.config.lines:
+            t = float(line.split()[0])
+            self.ctx.ingest(RawRecord("dummy", self.ctx.name, t, line.encode()))
+        await asyncio.Event().wait()
+
+    @classmethod
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> DummyDecoder:
+        return DummyDecoder(source, health)
+
+    @classmethod
+    def sniff(cls, head: bytes) -> bool:
+        return head.startswith(b"#dummy")
+
+    @classmethod
+    def open_replay(
+        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
+    ) -> Iterator[RawRecord]:
+        for raw in stream:
+            line = raw.strip()
+            if not line or line.startswith(b"#"):
+                continue
+            try:
+                t = float(line.split()[0])
+            except ValueError:
+                health.count("rejected.no_time")
+                continue
+            health.count("lines")
+            yield RawRecord("dummy", source, t, line)
+
+
+class SumCore:
+    """Running sum of `yaw_rate.r`; also re-emits upstream estimates it consumes."""
+
+    inputs = frozenset({"yaw_rate"})
+
+    def __init__(self, fail_on: float | None) -> None:
+        self.total = 0.0
+        self.fail_on = fail_on
+        self.seen: list[float] = []
+
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        if self.fail_on is not None and rec.values.get("r") == self.fail_on:
+            raise ValueError("bad value")
+        self.seen.append(rec.t)
+        self.total += rec.values["r"]
+        return [Estimate("sum", "sum", rec.t, {"total": self.total})]
+
+
+class ChainCore:
+    """Consumes the `sum` estimate and the raw yaw rate: order-sensitive on purpose."""
+
+    inputs = frozenset({"est/sum", "yaw_rate"})
+
+    def __init__(self) -> None:
+        self.trace: list[str] = []
+
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        self.trace.append(rec.route_key)
+        return [Estimate("chain", "chain", rec.t, {"trace": "".join(k[0] for k in self.trace)})]
+
+
+class SumConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
+    fail_on: float | None = None
+
+
+class SumEstimator(EstimatorPlugin):
+    Config = SumConfig
+    cores: list[SumCore] = []
+
+    def make_core(self) -> SumCore:
+        core = SumCore(self.config.fail_on)
+        SumEstimator.cores.append(core)
+        return core
+
+
+class ChainEstimator(EstimatorPlugin):
+    def make_core(self) -> ChainCore:
+        return ChainCore()
+
+
+class ListOutputConfig(OutputConfig):
+    fail_writes: int = 0
+
+
+class ListOutput(OutputPlugin):
+    """Keeps what it receives; records its lifecycle for assertions."""
+
+    Config = ListOutputConfig
+    instances: list["ListOutput"] = []
+
+    def __init__(self, config: Any, ctx: Any) -> None:
+        super().__init__(config, ctx)
+        self.records: list[Any] = []
+        self.events: list[str] = []
+        self.got_first = asyncio.Event()
+        ListOutput.instances.append(self)
+
+    async def open(self) -> None:
+        self.events.append("open")
+
+    def write(self, batch: list[Any]) -> None:
+        if self.config.fail_writes > sum(1 for e in self.events if e == "write-failed"):
+            self.events.append("write-failed")
+            raise OSError(28, "No space left on device")
+        self.records.extend(batch)
+        self.got_first.set()
+
+    def flush(self) -> None:
+        self.events.append("flush")
+
+    def rotate(self) -> None:
+        self.events.append("rotate")
+
+    async def close(self) -> None:
+        self.events.append("close")
+
+
