@@ -1,0 +1,6 @@
+"""MCAP recording for edged (DESIGN §7).
+
+The recorder output writes raw data, measurements, estimates and health into MCAP
+files with one JSON-schema'd channel per topic; the same package reads those files
+back for replay and implements the `inspect`, `export`, `plot` and `recover` commands.
+"""

@@ -1,0 +1,215 @@
+"""Records to MCAP messages and back: topics and payloads of DESIGN §7.
+
+`encode(record)` gives the messages one record becomes (a position is also a
+`foxglove.LocationFix`); `raw_from_message` turns a recorded raw message back into the
+exact RawRecord that went in, which is what replay feeds to the inputs' decoders.
+
+Time: a message's log time is the record's `t` in nanoseconds, but the payload keeps
+the float `t` itself, so replay reproduces it bit for bit (ns rounding would not).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any, Callable, Iterable, NamedTuple
+
+from edged.records import KINDS, Estimate, HealthRecord, Measurement, RawRecord, measurement_to_json
+
+from .schemas import LOCATION_FIX
+
+__all__ = [
+    "Out",
+    "encode",
+    "to_ns",
+    "dumps",
+    "raw_from_message",
+    "RAW_PREFIX",
+    "NotRaw",
+]
+
+RAW_PREFIX = "/raw/"
+
+
+class Out(NamedTuple):
+    """One message to write: topic, schema name, JSON payload (a dict)."""
+
+    topic: str
+    schema: str
+    payload: dict[str, Any]
+
+
+class NotRaw(ValueError):
+    """A message that cannot be turned back into a RawRecord (named reason)."""
+
+
+def to_ns(t: float) -> int:
+    """Seconds to MCAP nanoseconds (uint64: times before 1970 clamp to 0)."""
+    ns = round(t * 1e9)
+    return ns if ns > 0 else 0
+
+
+def _jsonable(o: Any) -> Any:
+    # numpy scalars and arrays (estimators use numpy) know how to become Python values.
+    for attr in ("tolist", "item"):
+        f = getattr(o, attr, None)
+        if callable(f):
+            return f()
+    if isinstance(o, (set, frozenset, tuple)):
+        return list(o)
+    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
+
+
+def _finite(o: Any) -> Any:
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    return o
+
+
+def dumps(payload: dict[str, Any]) -> tuple[bytes, bool]:
+    """Compact JSON bytes, and whether non-finite numbers had to become null.
+
+    NaN and infinity are not JSON: readers (Foxglove, pandas, jq) reject the file's
+    messages if they appear, so they are recorded as null and counted by the caller.
+    """
+    try:
+        return json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_jsonable).encode(), False
+    except ValueError:
+        clean = _finite(json.loads(json.dumps(payload, default=_jsonable)))
+        return json.dumps(clean, separators=(",", ":"), allow_nan=False).encode(), True
+
+
+# -- raw records --------------------------------------------------------------------
+def _raw_nmea(r: RawRecord) -> dict[str, Any]:
+    try:
+        return {"t": r.t, "line": r.data.decode("utf-8"), "meta": r.meta}
+    except UnicodeDecodeError:  # garbage on the wire is recorded too, byte for byte
+        return {"t": r.t, "data_hex": r.data.hex(), "meta": r.meta}
+
+
+#: Keys under which CAN inputs may put the identifier and its width in `meta`.
+_CAN_ID_KEYS = ("id", "arbitration_id", "can_id")
+_CAN_EXT_KEYS = ("ext", "is_extended_id", "extended")
+
+
+def _first(meta: Any, keys: tuple[str, ...]) -> Any:
+    if isinstance(meta, dict):
+        for k in keys:
+            if k in meta:
+                return meta[k]
+    return None
+
+
+def _raw_can(r: RawRecord) -> dict[str, Any]:
+    return {
+        "t": r.t,
+        "id": _first(r.meta, _CAN_ID_KEYS),
+        "ext": _first(r.meta, _CAN_EXT_KEYS),
+        "data": r.data.hex(),
+        "meta": r.meta,
+    }
+
+
+def _raw_other(r: RawRecord) -> dict[str, Any]:
+    return {"t": r.t, "data": r.data.hex(), "meta": r.meta}
+
+
+#: protocol -> (schema name, payload maker); other protocols are recorded as hex.
+_RAW: dict[str, tuple[str, Callable[[RawRecord], dict[str, Any]]]] = {
+    "nmea0183": ("edged.raw.nmea0183", _raw_nmea),
+    "can": ("edged.raw.can", _raw_can),
+}
+_RAW_DEFAULT = ("edged.raw", _raw_other)
+
+
+def _encode_raw(r: RawRecord) -> Iterable[Out]:
+    schema, make = _RAW.get(r.protocol, _RAW_DEFAULT)
+    return (Out(f"/raw/{r.protocol}/{r.source}", schema, make(r)),)
+
+
+def _data_of(payload: dict[str, Any]) -> bytes:
+    line = payload.get("line")
+    if isinstance(line, str):
+        return line.encode("utf-8")
+    for key in ("data_hex", "data"):
+        h = payload.get(key)
+        if isinstance(h, str):
+            return bytes.fromhex(h)
+    raise NotRaw("no line or data")
+
+
+def raw_from_message(topic: str, payload: Any) -> RawRecord:
+    """The RawRecord a `/raw/<protocol>/<source>` message was made of (NotRaw if none)."""
+    parts = topic.split("/", 3)
+    if len(parts) != 4 or parts[1] != "raw" or not parts[2] or not parts[3]:
+        raise NotRaw("topic")
+    if not isinstance(payload, dict):
+        raise NotRaw("payload")
+    t = payload.get("t")
+    if not isinstance(t, (int, float)) or isinstance(t, bool):
+        raise NotRaw("time")
+    try:
+        data = _data_of(payload)
+    except ValueError as exc:  # bad hex is a ValueError as well
+        raise NotRaw(f"data: {exc}") from None
+    meta = payload.get("meta")
+    return RawRecord(parts[2], parts[3], float(t), data, meta if isinstance(meta, dict) else None)
+
+
+# -- measurements, estimates, health -----------------------------------------------
+def _location_fix(m: Measurement) -> Out:
+    ns = to_ns(m.t)
+    v = m.values
+    return Out(
+        f"/location/{m.source}",
+        LOCATION_FIX,
+        {
+            "timestamp": {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000},
+            "frame_id": m.source,
+            "latitude": v["lat"],
+            "longitude": v["lon"],
+            "altitude": 0.0,
+            # Covariance unknown (type 0): an HDOP is not a covariance without a UERE.
+            "position_covariance": [0.0] * 9,
+            "position_covariance_type": 0,
+        },
+    )
+
+
+def _encode_measurement(m: Measurement) -> Iterable[Out]:
+    schema = f"edged.meas.{m.kind}" if m.kind in KINDS else "edged.meas"
+    out = Out(f"/meas/{m.kind}/{m.source}", schema, measurement_to_json(m))
+    if m.kind == "position" and "lat" in m.values and "lon" in m.values:
+        return (out, _location_fix(m))
+    return (out,)
+
+
+def _encode_estimate(e: Estimate) -> Iterable[Out]:
+    payload: dict[str, Any] = {"t": e.t}
+    payload.update(e.values)
+    payload["t"] = e.t  # the record's time is authoritative
+    return (Out(f"/est/{e.name}", "edged.est", payload),)
+
+
+def _encode_health(h: HealthRecord) -> Iterable[Out]:
+    payload: dict[str, Any] = {"t": h.t}
+    payload.update(h.values)
+    payload["t"] = h.t
+    return (Out("/health", "edged.health", payload),)
+
+
+_ENCODERS: dict[type, Callable[[Any], Iterable[Out]]] = {
+    RawRecord: _encode_raw,
+    Measurement: _encode_measurement,
+    Estimate: _encode_estimate,
+    HealthRecord: _encode_health,
+}
+
+
+def encode(record: Any) -> Iterable[Out]:
+    """The messages `record` is recorded as; KeyError for a type edged does not know."""
+    return _ENCODERS[type(record)](record)

@@ -1,0 +1,68 @@
+"""Raw records out of a recording, for `edged replay FILE.mcap`.
+
+Only the raw channels are read back: the core decodes them again with the inputs'
+decoders, so new tuning can be tried on old voyages. Unfinished files are read up to
+their last complete chunk; what could not be read is counted, never raised.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import BinaryIO, Iterator
+
+from mcap.exceptions import McapError
+
+from edged.health import ComponentHealth
+from edged.records import RawRecord
+
+from .channels import RAW_PREFIX, NotRaw, raw_from_message
+from .reading import ReadReport, iter_messages
+
+__all__ = ["read_raw"]
+
+
+def read_raw(stream: BinaryIO, health: ComponentHealth, name: str | Path) -> Iterator[RawRecord]:
+    """RawRecords of every `/raw/...` channel in file order; rejects are counted."""
+    report = ReadReport()
+    try:
+        for channel, _schema, msg in iter_messages(stream, report):
+            topic = channel.topic
+            if not topic.startswith(RAW_PREFIX):
+                continue
+            try:
+                payload = json.loads(msg.data)
+            except ValueError:  # UnicodeDecodeError is one too
+                health.count("rejected.bad_json")
+                health.error(f"{name}: {topic}: a message is not JSON")
+                continue
+            try:
+                yield raw_from_message(topic, payload)
+            except NotRaw as exc:
+                health.count("rejected.bad_raw")
+                health.error(f"{name}: {topic}: not a raw record ({exc})")
+    except McapError as exc:
+        health.count("rejected.not_mcap")
+        health.error(f"{name}: {exc}")
+        return
+    _report(report, health, name)
+
+
+def _report(report: ReadReport, health: ComponentHealth, name: str | Path) -> None:
+    if report.bad_chunks:
+        health.count("rejected.bad_chunk", report.bad_chunks)
+        health.error(f"{name}: {report.bad_chunks} damaged chunk(s) skipped: {report.bad_chunk_errors[0]}")
+    if report.orphans:
+        health.count("rejected.no_channel", report.orphans)
+    if report.truncated or report.error or not report.finished:
+        health.count("truncated")
+        if report.error:
+            why = report.error
+        elif report.truncated:
+            why = "ends inside a record"
+        else:
+            why = "has no footer"
+        health.error(
+            f"{name}: unfinished recording ({why}): read {report.messages} messages "
+            f"in {report.chunks} complete chunks; anything after them is lost"
+        )
