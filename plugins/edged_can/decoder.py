@@ -1,0 +1,60 @@
+"""The decoder of one CAN bus: a RawRecord alone -> measurements.
+
+It needs nothing but the record (the identifier and the extended flag travel in
+`meta`), so a frame read live, from a candump log or back from an MCAP recording is
+decoded alike. Frames the DBC describes go to the DBC decoder (whatever their
+identifier length); other 29-bit frames are NMEA 2000; other 11-bit frames are counted
+as unknown and, like everything, were already recorded raw.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from edged.health import ComponentHealth
+from edged.records import Measurement, RawRecord
+
+from .config import CanConfig
+from .dbc import DbcDecoder
+from .emit import Emitter
+from .n2k import N2kDecoder
+
+
+class CanDecoder:
+    def __init__(self, bus: str, config: CanConfig, health: ComponentHealth) -> None:
+        self.bus = bus
+        self._health = health
+        emit = Emitter(health)
+        self._dbc = DbcDecoder(bus, config, health, emit)
+        self._n2k = N2kDecoder(bus, config, health, emit)
+
+    def decode(self, raw: RawRecord) -> list[Measurement]:
+        count = self._health.count
+        ident = _identifier(raw.meta)
+        if ident is None or not isinstance(raw.data, (bytes, bytearray)):
+            count("rejected.no_identifier")
+            self._health.error(f"{raw.source}: CAN record without a valid meta id/ext or bytes: {raw.meta!r}")
+            return []
+        can_id, ext = ident
+        count("frames")
+        if self._dbc.knows(can_id, ext):
+            count("frames.dbc")
+            return self._dbc.decode(raw, can_id, ext)
+        if ext:
+            count("frames.n2k")
+            return self._n2k.decode(raw, can_id)
+        count(f"unknown_id.0x{can_id:03x}")
+        return []
+
+
+def _identifier(meta: Any) -> tuple[int, bool] | None:
+    """(id, extended) from a record's meta, checked: MCAP replays bring JSON back."""
+    try:
+        can_id, ext = meta["id"], meta["ext"]
+    except (TypeError, KeyError):
+        return None
+    if not isinstance(can_id, int) or not isinstance(ext, bool):
+        return None
+    if not 0 <= can_id < (1 << 29 if ext else 1 << 11):
+        return None
+    return can_id, ext

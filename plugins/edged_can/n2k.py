@@ -1,0 +1,214 @@
+"""NMEA 2000 frames of one bus -> measurements (DESIGN §2 kinds, §5 PGN list).
+
+Field layouts come from canboat through `n2k_codec`; what each PGN means for edged
+(which kind, which reference, what makes it invalid) is here, one small handler per
+PGN in a table. State that spans messages — fast-packets in flight, the magnetic
+variation last heard, which device holds which address — lives in this object, which
+the runtime keeps per bus, so it also spans the files of one replay.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+from edged.health import ComponentHealth
+from edged.records import Measurement, RawRecord, wrap_angle
+
+from . import n2k_codec
+from .config import CanConfig
+from .emit import Emitter
+from .fastpacket import FastPacketAssembler
+from .sources import N2kSources
+
+# canboat lookup codes used below.
+_REF_TRUE, _REF_MAGNETIC = 0, 1  # DIRECTION_REFERENCE
+_GNSS_NO_FIX, _GNSS_ERROR = 0, 14  # GNS_METHOD; 1..8 match NMEA 0183 GGA fix quality
+
+Handler = Callable[[dict[str, Any], bytes, int, float, list[Measurement]], None]
+
+
+def _utc(days: Any, seconds: Any) -> float | None:
+    if days is None or seconds is None:
+        return None
+    return float(days) * 86400.0 + float(seconds)
+
+
+class N2kDecoder:
+    def __init__(self, bus: str, config: CanConfig, health: ComponentHealth, emit: Emitter) -> None:
+        self._health = health
+        self._emit = emit
+        self._sources = N2kSources(bus, config.source_names, config.iso_name_map(), health)
+        self._fast = FastPacketAssembler(health)
+        deg = config.magnetic_variation_deg
+        self._variation_config = None if deg is None else math.radians(deg)
+        self._variation_pgn: float | None = None
+        self._handlers: dict[int, Handler] = {
+            127250: self._heading,
+            127251: self._rate_of_turn,
+            127257: self._attitude,
+            127258: self._variation,
+            128259: self._water_speed,
+            128267: self._depth,
+            129025: self._position_rapid,
+            129026: self._cog_sog,
+            129029: self._gnss_position,
+            126992: self._system_time,
+            60928: self._address_claim,
+        }
+        self._pgn_keys = {pgn: f"pgn.{pgn}" for pgn in self._handlers}
+        self._fast_pgns = {pgn for pgn in self._handlers if n2k_codec.is_fast(pgn)}
+
+    def decode(self, raw: RawRecord, can_id: int) -> list[Measurement]:
+        prio, pgn, addr, dst = n2k_codec.split_id(can_id)
+        handler = self._handlers.get(pgn)
+        data = raw.data
+        if handler is None:
+            self._count_unknown(pgn, data)
+            return []
+        if pgn in self._fast_pgns:
+            payload = self._fast.push(addr, pgn, data)
+            if payload is None:
+                return []
+        else:
+            payload = data
+        fields = n2k_codec.decode_fields(pgn, payload, addr, dst, prio)
+        if fields is None:
+            self._health.count("rejected.undecodable")
+            self._health.error(f"PGN {pgn} from {addr}: canboat cannot decode {payload.hex()}")
+            return []
+        self._health.count(self._pgn_keys[pgn])
+        out: list[Measurement] = []
+        handler(fields, payload, addr, raw.t, out)
+        return out
+
+    def _count_unknown(self, pgn: int, data: bytes) -> None:
+        # One count per message: a fast-packet message counts at its first frame.
+        if data and n2k_codec.is_fast(pgn) and data[0] & 0x1F:
+            return
+        self._health.count(f"unknown_pgn.{pgn}")
+
+    def _variation_known(self, same_pgn: Any) -> float | None:
+        """DESIGN §2: the same PGN's variation, else PGN 127258's, else configuration."""
+        if same_pgn is not None:
+            return float(same_pgn)
+        if self._variation_pgn is not None:
+            return self._variation_pgn
+        return self._variation_config
+
+    # ---- one handler per PGN -------------------------------------------------------
+
+    def _heading(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        hdg, ref = f.get("heading"), f.get("reference")
+        if hdg is None:
+            self._emit.unavailable("127250")
+            return
+        src = self._sources.name(addr)
+        if ref == _REF_TRUE:
+            self._emit(out, "heading", src, t, {"heading": wrap_angle(hdg)})
+        elif ref == _REF_MAGNETIC:
+            magnetic = hdg + (f.get("deviation") or 0.0)
+            var = self._variation_known(f.get("variation"))
+            if var is None:
+                self._emit(out, "heading_magnetic", src, t, {"heading": wrap_angle(magnetic)})
+            else:
+                self._emit(out, "heading", src, t, {"heading": wrap_angle(magnetic + var)})
+        else:
+            self._health.count("rejected.heading_reference")
+            self._health.error(f"{src}: PGN 127250 heading reference {ref!r} is neither true nor magnetic")
+
+    def _rate_of_turn(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        rate = f.get("rate")
+        if rate is None:
+            self._emit.unavailable("127251")
+            return
+        self._emit(out, "yaw_rate", self._sources.name(addr), t, {"r": float(rate)})
+
+    def _attitude(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        roll, pitch = f.get("roll"), f.get("pitch")
+        if roll is None or pitch is None:
+            self._emit.unavailable("127257")
+            return
+        self._emit(out, "attitude", self._sources.name(addr), t, {"roll": float(roll), "pitch": float(pitch)})
+
+    def _variation(self, f: dict[str, Any], _p: bytes, _addr: int, _t: float, _out: list[Measurement]) -> None:
+        var = f.get("variation")
+        if var is None:
+            self._emit.unavailable("127258")
+            return
+        self._variation_pgn = float(var)
+
+    def _water_speed(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        stw = f.get("speedWaterReferenced")
+        if stw is None:
+            self._emit.unavailable("128259")
+            return
+        self._emit(out, "water_speed", self._sources.name(addr), t, {"stw_long": float(stw)})
+
+    def _depth(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        depth = f.get("depth")
+        if depth is None:
+            self._emit.unavailable("128267")
+            return
+        values = {"depth": float(depth)}
+        if f.get("offset") is not None:
+            values["offset"] = float(f["offset"])  # + transducer to waterline, as NMEA
+        self._emit(out, "depth", self._sources.name(addr), t, values)
+
+    def _position_rapid(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        lat, lon = f.get("latitude"), f.get("longitude")
+        if lat is None or lon is None:
+            self._emit.unavailable("129025")
+            return
+        self._emit(out, "position", self._sources.name(addr), t, {"lat": float(lat), "lon": float(lon)})
+
+    def _cog_sog(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        sog, cog, ref = f.get("sog"), f.get("cog"), f.get("cogReference")
+        if sog is None:
+            self._emit.unavailable("129026")
+            return
+        values: dict[str, Any] = {"sog": float(sog)}
+        if cog is not None and ref == _REF_TRUE:
+            values["cog"] = wrap_angle(cog)
+        elif cog is not None and ref == _REF_MAGNETIC:
+            var = self._variation_known(None)
+            if var is None:
+                self._emit.unavailable("129026.cog_true")  # magnetic COG, no variation known
+            else:
+                values["cog"] = wrap_angle(cog + var)
+        self._emit(out, "velocity_ground", self._sources.name(addr), t, values)
+
+    def _gnss_position(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
+        lat, lon, method = f.get("latitude"), f.get("longitude"), f.get("method")
+        src = self._sources.name(addr)
+        if method in (_GNSS_NO_FIX, _GNSS_ERROR):
+            self._health.count("rejected.no_fix")
+            self._health.error(f"{src}: PGN 129029 without a GNSS fix")
+            return
+        if lat is None or lon is None:
+            self._emit.unavailable("129029")
+            return
+        values: dict[str, Any] = {"lat": float(lat), "lon": float(lon)}
+        if method is not None:
+            values["fix_quality"] = int(method)
+        if f.get("numberOfSvs") is not None:
+            values["sats"] = int(f["numberOfSvs"])
+        if f.get("hdop") is not None:
+            values["hdop"] = float(f["hdop"])
+        self._emit(out, "position", src, t, values, _utc(f.get("date"), f.get("time")))
+
+    def _system_time(self, f: dict[str, Any], _p: bytes, addr: int, t: float, _out: list[Measurement]) -> None:
+        # No measurement kind carries time; the offset of the device's clock to ours is
+        # what a reviewer of a recording wants to see.
+        t_src = _utc(f.get("date"), f.get("time"))
+        if t_src is None:
+            self._emit.unavailable("126992")
+            return
+        self._health.info.setdefault("clock_offset_s", {})[self._sources.name(addr)] = round(t_src - t, 3)
+
+    def _address_claim(self, _f: dict[str, Any], payload: bytes, addr: int, _t: float, _o: list[Measurement]) -> None:
+        if len(payload) < 8:
+            self._health.count("rejected.short_address_claim")
+            self._health.error(f"address claim from {addr} shorter than 8 bytes")
+            return
+        self._sources.claim(addr, int.from_bytes(payload[:8], "little"))
