@@ -44,8 +44,13 @@ class NotRaw(ValueError):
 
 
 def to_ns(t: float) -> int:
-    """Seconds to MCAP nanoseconds (uint64: times before 1970 clamp to 0)."""
-    ns = round(t * 1e9)
+    """Seconds to MCAP nanoseconds (uint64: times before 1970 clamp to 0).
+
+    Whole seconds and the fraction are converted apart: `t * 1e9` alone would round
+    to 256 ns steps at today's epoch times.
+    """
+    sec = math.floor(t)
+    ns = sec * 1_000_000_000 + round((t - sec) * 1e9)
     return ns if ns > 0 else 0
 
 
