@@ -34,6 +34,10 @@ class McapFile:
         metadata: dict[str, str],
     ) -> None:
         self.path = path
+        if isinstance(stream, io.RawIOBase):
+            # The mcap Writer would buffer a raw stream itself, out of reach of our
+            # flush and close: buffer it here so that flush() really flushes.
+            stream = io.BufferedWriter(stream)
         self.stream = stream
         self.messages = 0
         self._writer = Writer(stream, chunk_size=chunk_size, compression=COMPRESSION[compression])
