@@ -1,0 +1,106 @@
+"""`edged router` and `edged fleet` (entry point group `edged.commands`).
+
+There is no zenohd binary on PyPI nor in Debian (DEPENDENCIES): a router for a ship or
+a small shore site is a Python session in router mode, which is all `edged router` is.
+Both commands use the same configuration path as the plugins: safe defaults, then the
+json5 file of `--zenoh-config` merged over them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import threading
+from typing import Any, Iterator, Mapping, TextIO
+
+import zenoh
+
+from .fleet import run_fleet
+from .zconfig import DEFAULT_LISTEN, ZenohConfigError, listen_endpoints, load_json5, merge, safe_defaults, to_zenoh
+
+__all__ = ["router_main", "fleet_main", "run_router", "command_config", "ROUTER_DEFAULTS", "FLEET_DEFAULTS"]
+
+EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
+
+#: A router on the ship's own loopback: the daemon and local tools meet here.
+ROUTER_DEFAULTS = safe_defaults(mode="router")
+#: A dashboard peer that listens on nothing and looks for the local router or daemon.
+FLEET_DEFAULTS = safe_defaults(mode="peer", listen=(), connect=(DEFAULT_LISTEN,))
+
+
+def command_config(defaults: Mapping[str, Any], zenoh_config: str | None) -> dict[str, Any]:
+    """Defaults with the `--zenoh-config` file merged over them, checked by zenoh."""
+    cfg = merge(defaults, load_json5(zenoh_config)) if zenoh_config else dict(defaults)
+    to_zenoh(cfg, zenoh_config or "built-in defaults")
+    return cfg
+
+
+@contextlib.contextmanager
+def stop_on_signals(stop: threading.Event) -> Iterator[None]:
+    """SIGINT and SIGTERM set `stop` (systemd stops with SIGTERM, a user with Ctrl-C)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        stop.set()
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def run_router(cfg: Mapping[str, Any], out: TextIO, stop: threading.Event) -> int:
+    """Run a router session until `stop` is set; one line on `out` once it listens."""
+    try:
+        session = zenoh.open(to_zenoh(cfg))
+    except zenoh.ZError as exc:
+        print(f"edged router: cannot start: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    try:
+        eps = ", ".join(listen_endpoints(cfg)) or "nothing"
+        print(f"edged router {session.zid()} listening on {eps}", file=out, flush=True)
+        stop.wait()
+    finally:
+        session.close()
+    print("edged router stopped", file=out, flush=True)
+    return EXIT_OK
+
+
+def router_main(args: argparse.Namespace) -> int:
+    try:
+        cfg = command_config(ROUTER_DEFAULTS, getattr(args, "zenoh_config", None))
+    except ZenohConfigError as exc:
+        print(f"edged router: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    stop = threading.Event()
+    with stop_on_signals(stop):
+        return run_router(cfg, getattr(args, "out", None) or sys.stdout, stop)
+
+
+def fleet_main(args: argparse.Namespace) -> int:
+    """`edged fleet`; `args.out`, `duration`, `refreshes`, `interval` are optional (tests)."""
+    try:
+        cfg = command_config(FLEET_DEFAULTS, getattr(args, "zenoh_config", None))
+    except ZenohConfigError as exc:
+        print(f"edged fleet: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    stop = threading.Event()
+    with stop_on_signals(stop):
+        try:
+            return run_fleet(
+                cfg,
+                getattr(args, "out", None) or sys.stdout,
+                interval=getattr(args, "interval", None) or 1.0,
+                duration=getattr(args, "duration", None),
+                refreshes=getattr(args, "refreshes", None),
+                stop=stop,
+            )
+        except zenoh.ZError as exc:
+            print(f"edged fleet: {exc}", file=sys.stderr)
+            return EXIT_FAILURE

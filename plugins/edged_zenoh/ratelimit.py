@@ -1,0 +1,43 @@
+"""Per-key rate limit on data time, so that replay publishes exactly what live did.
+
+Measurement topics are optional extras for on-board displays (DESIGN §6): a 100 Hz
+draft mark need not cross a satellite link at 100 Hz. The limit is judged on the
+records' own time `t`, never the wall clock, so the same input gives the same
+published subset at any replay speed.
+"""
+
+from __future__ import annotations
+
+__all__ = ["DataTimeRateLimiter"]
+
+# Time may step back by this much (seconds) before the limiter assumes a new
+# recording started and forgets the past; smaller steps are reordering and dropped.
+_RESTART_AFTER = 1.0
+
+
+class DataTimeRateLimiter:
+    """At most `hz` records per second of data time per key.
+
+    Slots sit on a grid (`next += period`) rather than `t + period`, so a 10 Hz sensor
+    with jitter limited to 10 Hz keeps its full rate instead of losing every record that
+    arrives a millisecond early. After a gap the grid restarts at the record's time:
+    silence earns no burst.
+    """
+
+    __slots__ = ("_next",)
+
+    def __init__(self) -> None:
+        self._next: dict[str, float] = {}
+
+    def allow(self, key: str, t: float, hz: float) -> bool:
+        if hz <= 0.0:
+            return False
+        period = 1.0 / hz
+        nxt = self._next.get(key)
+        if nxt is None or t < nxt - period - _RESTART_AFTER:
+            self._next[key] = t + period
+            return True
+        if t + 1e-9 < nxt:
+            return False
+        self._next[key] = t + period if t >= nxt + period else nxt + period
+        return True

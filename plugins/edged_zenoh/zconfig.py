@@ -1,0 +1,270 @@
+"""Zenoh configuration: the safe defaults and the json5 drop-in, in one representation.
+
+Every session edged opens (output, input, `edged router`, `edged fleet`) is described
+by a plain nested dict in zenoh's own configuration schema. It is built by merging, in
+order of increasing precedence:
+
+1. the safe defaults of DESIGN §6 (`safe_defaults`): localhost only, no scouting, so a
+   fresh install exposes nothing on the ship's network;
+2. the plugin's explicit settings (`mode`, `listen`, `connect`, `tls`);
+3. the json5 file named by the plugin's `zenoh_config`;
+4. the json5 file given on the command line (`--zenoh-config`).
+
+Files are merged key by key (objects recursively, lists and scalars replaced), so a
+user file that only says `{connect: {endpoints: ["tls/shore:7447"]}}` keeps the rest of
+the defaults. Only at the very end is the dict handed to `zenoh.Config.from_json5`,
+which is the authority on what zenoh accepts.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+import socket
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+import json5
+import zenoh
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
+
+__all__ = [
+    "DEFAULT_PORT",
+    "DEFAULT_LISTEN",
+    "ZenohConfigError",
+    "TlsSettings",
+    "ZenohSettings",
+    "safe_defaults",
+    "merge",
+    "load_json5",
+    "to_zenoh",
+    "session_config",
+    "listen_endpoints",
+    "with_listen_endpoints",
+    "endpoint_in_use",
+    "free_port_endpoint",
+    "check_key_prefix",
+]
+
+DEFAULT_PORT = 7447
+DEFAULT_LISTEN = f"tcp/127.0.0.1:{DEFAULT_PORT}"
+
+_ENDPOINT_RE = re.compile(r"^[a-z0-9]+/[^\s]+$")
+_TCP_RE = re.compile(r"^(?P<proto>tcp|tls)/(?P<host>\[[^\]]+\]|[^:/\[\]]+):(?P<port>\d+)(?P<rest>[#?].*)?$")
+_WILD_RE = re.compile(r"[*$?#]")
+
+
+class ZenohConfigError(ValueError):
+    """A zenoh configuration that cannot be used; the message names its origin."""
+
+
+def safe_defaults(
+    mode: str = "peer",
+    listen: list[str] | tuple[str, ...] = (DEFAULT_LISTEN,),
+    connect: list[str] | tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """The defaults of DESIGN §6: explicit endpoints only, no multicast nor gossip.
+
+    Gossip is switched off as well as multicast because a gossiping peer would tell
+    other peers about endpoints it learnt, which is discovery by another name.
+    """
+    return {
+        "mode": mode,
+        "listen": {"endpoints": list(listen)},
+        "connect": {"endpoints": list(connect)},
+        "scouting": {"multicast": {"enabled": False}, "gossip": {"enabled": False}},
+    }
+
+
+def merge(base: Mapping[str, Any], overlay: Mapping[str, Any]) -> dict[str, Any]:
+    """A new dict: `overlay` over `base`, objects merged recursively, the rest replaced."""
+    out = copy.deepcopy(dict(base))
+    for key, value in overlay.items():
+        old = out.get(key)
+        if isinstance(old, dict) and isinstance(value, Mapping):
+            out[key] = merge(old, value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def load_json5(path: str | Path) -> dict[str, Any]:
+    """Read a zenoh json5 file; ZenohConfigError names the file and the reason."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ZenohConfigError(f"{p}: cannot read: {exc}") from None
+    try:
+        data = json5.loads(text)
+    except ValueError as exc:
+        raise ZenohConfigError(f"{p}: json5 syntax: {exc}") from None
+    if not isinstance(data, dict):
+        raise ZenohConfigError(f"{p}: the top level must be an object")
+    return data
+
+
+def to_zenoh(cfg: Mapping[str, Any], origin: str = "zenoh configuration") -> zenoh.Config:
+    """The zenoh.Config of a merged dict; zenoh itself judges what is valid."""
+    try:
+        return zenoh.Config.from_json5(json.dumps(cfg))
+    except zenoh.ZError as exc:
+        raise ZenohConfigError(f"{origin}: rejected by zenoh: {exc}") from None
+
+
+def _resolve(path: str | Path, base: Path) -> Path:
+    p = Path(path).expanduser()
+    return p if p.is_absolute() else (base / p)
+
+
+class TlsSettings(BaseModel):
+    """zenoh's `transport/link/tls` section, passed through as is (paths resolved).
+
+    Relative certificate paths are taken relative to the edged configuration file, so a
+    site folder with its config and certificates can be moved as a whole.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    root_ca_certificate: str | None = None
+    listen_certificate: str | None = None
+    listen_private_key: str | None = None
+    connect_certificate: str | None = None
+    connect_private_key: str | None = None
+    enable_mtls: bool | None = None
+    verify_name_on_connect: bool | None = None
+
+    def to_zenoh_dict(self, base: Path) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, value in self.model_dump(exclude_none=True).items():
+            if isinstance(value, str):
+                value = str(_resolve(value, base))
+            out[name] = value
+        return out
+
+
+class ZenohSettings(BaseModel):
+    """The session settings every zenoh plugin of edged accepts (a configuration mixin)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    #: `peer` (default: reachable without any router) or `client` (through a router).
+    mode: Literal["peer", "client"] = "peer"
+    #: Endpoints to listen on; default tcp/127.0.0.1:7447 for a peer, none for a client.
+    listen: list[str] | None = None
+    #: Endpoints of routers or peers to connect to.
+    connect: list[str] | None = None
+    tls: TlsSettings | None = None
+    #: A zenoh json5 file merged over the defaults and the settings above.
+    zenoh_config: Path | None = None
+    #: When a listen port is taken, listen on a free port instead (logged, in health).
+    listen_fallback: bool = True
+    #: Seconds before the first retry of a failed session open, doubled up to retry_max.
+    retry_initial: float = Field(0.5, gt=0)
+    retry_max: float = Field(30.0, gt=0)
+
+    @field_validator("listen", "connect")
+    @classmethod
+    def _endpoints(cls, v: list[str] | None) -> list[str] | None:
+        for ep in v or ():
+            if not _ENDPOINT_RE.match(ep):
+                raise ValueError(f"{ep!r} is not a zenoh endpoint like 'tcp/127.0.0.1:7447'")
+        return v
+
+    @field_validator("zenoh_config")
+    @classmethod
+    def _zenoh_file(cls, v: Path | None, info: ValidationInfo) -> Path | None:
+        """Resolve and check the file at configuration time, so start-up names the key."""
+        if v is None:
+            return None
+        base = (info.context or {}).get("config_dir") or Path.cwd()
+        p = _resolve(v, Path(base))
+        to_zenoh(merge(safe_defaults(), load_json5(p)), str(p))
+        return p
+
+    def overlay(self, config_dir: Path) -> dict[str, Any]:
+        """The part of the zenoh dict these settings state explicitly."""
+        out: dict[str, Any] = {"mode": self.mode}
+        if self.listen is not None:
+            out["listen"] = {"endpoints": list(self.listen)}
+        elif self.mode == "client":
+            out["listen"] = {"endpoints": []}
+        if self.connect is not None:
+            out["connect"] = {"endpoints": list(self.connect)}
+        if self.tls is not None:
+            out["transport"] = {"link": {"tls": self.tls.to_zenoh_dict(config_dir)}}
+        return out
+
+
+def session_config(
+    settings: ZenohSettings,
+    *,
+    config_dir: Path,
+    cli_file: str | Path | None = None,
+    base: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The merged zenoh dict of a plugin: defaults < settings < its file < command line."""
+    cfg = merge(base if base is not None else safe_defaults(), settings.overlay(config_dir))
+    if settings.zenoh_config is not None:
+        cfg = merge(cfg, load_json5(_resolve(settings.zenoh_config, config_dir)))
+    if cli_file:
+        cfg = merge(cfg, load_json5(cli_file))
+    return cfg
+
+
+def listen_endpoints(cfg: Mapping[str, Any]) -> list[str]:
+    """The endpoints this session will listen on (zenoh allows a list per mode)."""
+    eps = (cfg.get("listen") or {}).get("endpoints") or []
+    if isinstance(eps, Mapping):
+        eps = eps.get(cfg.get("mode", "peer")) or []
+    return list(eps)
+
+
+def with_listen_endpoints(cfg: Mapping[str, Any], endpoints: list[str]) -> dict[str, Any]:
+    return merge(cfg, {"listen": {"endpoints": list(endpoints)}})
+
+
+def _tcp_parts(endpoint: str) -> tuple[str, str, int, str] | None:
+    m = _TCP_RE.match(endpoint)
+    if m is None:
+        return None
+    return m["proto"], m["host"].strip("[]"), int(m["port"]), m["rest"] or ""
+
+
+def endpoint_in_use(endpoint: str) -> bool:
+    """True when a TCP/TLS endpoint's address:port cannot be bound (someone holds it)."""
+    parts = _tcp_parts(endpoint)
+    if parts is None or parts[2] == 0:
+        return False
+    _, host, port, _ = parts
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        try:
+            s.bind((host, port))
+        except OSError:
+            return True
+    return False
+
+
+def free_port_endpoint(endpoint: str) -> str:
+    """The same endpoint on a port the OS says is free now."""
+    parts = _tcp_parts(endpoint)
+    if parts is None:
+        return endpoint
+    proto, host, _, rest = parts
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        port = s.getsockname()[1]
+    shown = f"[{host}]" if family == socket.AF_INET6 else host
+    return f"{proto}/{shown}:{port}{rest}"
+
+
+def check_key_prefix(prefix: str) -> str:
+    """A key prefix must be a concrete key (no wildcards, no empty chunks)."""
+    if not prefix or prefix.startswith("/") or prefix.endswith("/") or "//" in prefix:
+        raise ValueError(f"key prefix {prefix!r}: no leading, trailing or double '/'")
+    if _WILD_RE.search(prefix):
+        raise ValueError(f"key prefix {prefix!r}: no wildcard characters (* $ ? #)")
+    return prefix
