@@ -1,0 +1,137 @@
+"""Raw NMEA 0183 records -> canonical measurements (the `Decoder` of edged.plugin).
+
+Works from a RawRecord alone (`data` = the sentence, `t` = its time), so that a replay
+of an MCAP recording decodes exactly as the live input did. The record was checked
+(checksum policy, framing) when it was received; the decoder does not check again.
+
+Counters (in the health it was made with):
+- `sentences.<TYPE>`: sentences of a type it decodes (TYPE without talker: GGA, HDT…);
+- `invalid.<TYPE>`: of those, ones that gave no measurement because the sentence said
+  its data is invalid, a needed field was empty, or a value was impossible;
+- `measurements.<kind>`: measurements emitted;
+- `unknown.<TYPE>`: sentences of other types (kept raw only); at most MAX_UNKNOWN_KEYS
+  distinct types are named, the rest count as `unknown.other`;
+- `encapsulated.<TYPE>`: `!` sentences (AIS VDM/VDO), recorded raw, not decoded;
+- `malformed`: records that are not a sentence at all (no address field).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from edged.health import ComponentHealth
+from edged.records import KINDS, InvalidMeasurement, Measurement, RawRecord, validate_measurement
+
+from .handlers import HANDLERS, Env, Handler, Invalid
+from .reporting import ProblemReporter
+from .timeofday import nearest_time
+
+MAX_UNKNOWN_KEYS = 64
+_KIND_KEYS = {k: "measurements." + k for k in KINDS}
+
+
+class DecoderSettings:
+    """The parts of the input's configuration the decoder uses."""
+
+    __slots__ = ("variation", "vbw_ground")
+
+    def __init__(self, variation: float | None = None, vbw_ground: bool = False) -> None:
+        self.variation = variation
+        self.vbw_ground = vbw_ground
+
+    @classmethod
+    def from_config(cls, config: Any) -> "DecoderSettings":
+        if config is None:
+            return cls()
+        return cls(getattr(config, "variation", None), bool(getattr(config, "vbw_ground", False)))
+
+
+class _Type:
+    """Per sentence type: its handler and pre-built counter keys (no string work per line)."""
+
+    __slots__ = ("handler", "sentences", "invalid")
+
+    def __init__(self, stype: str, handler: Handler) -> None:
+        self.handler = handler
+        self.sentences = "sentences." + stype
+        self.invalid = "invalid." + stype
+
+
+class Nmea0183Decoder:
+    __slots__ = ("source", "_health", "_settings", "_env", "_types", "_unknown", "_reporter")
+
+    def __init__(self, source: str, health: ComponentHealth, settings: DecoderSettings | None = None) -> None:
+        self.source = source
+        self._health = health
+        self._settings = settings or DecoderSettings()
+        self._env = Env(self._settings.variation, self._settings.vbw_ground)
+        self._types = {k: _Type(k, h) for k, h in HANDLERS.items()}
+        self._unknown: dict[str, str] = {}
+        self._reporter = ProblemReporter(health)
+
+    def decode(self, raw: RawRecord) -> list[Measurement]:
+        try:
+            return self._decode(raw)
+        except Exception as exc:  # a decoder bug must not stop the input (DESIGN §8)
+            self._health.count("decode_errors")
+            self._reporter.report(f"decoder failure: {type(exc).__name__}: {exc}")
+            return []
+
+    def _decode(self, raw: RawRecord) -> list[Measurement]:
+        data = raw.data
+        if data[:1] == b"\\":  # a TAG block left in front (records from other writers)
+            data = data[data.find(b"\\", 1) + 1 :]
+        text = data.decode("ascii", "replace")
+        star = text.find("*")
+        f = (text[1:star] if star > 0 else text[1:]).split(",")
+        addr = f[0]
+        entry = self._types.get(addr[2:]) if len(addr) == 5 and text[0] == "$" and addr[0] != "P" else None
+        if entry is None:
+            self._count_other(text, addr)
+            return []
+        counters = self._health.counters  # direct increments: this runs per sentence
+        counters[entry.sentences] = counters.get(entry.sentences, 0) + 1
+        try:
+            items, tod, variation = entry.handler(f, self._env)
+        except (Invalid, ValueError, IndexError) as exc:
+            self._invalid(entry, exc if isinstance(exc, Invalid) else "empty or malformed field")
+            return []
+        if variation is not None:
+            self._env.variation = variation  # RMC's variation outranks the configured one
+        t = raw.t
+        t_src = None if tod is None else nearest_time(t, tod)
+        result: list[Measurement] = []
+        for kind, values in items:
+            try:
+                validate_measurement(kind, values)
+            except InvalidMeasurement as exc:
+                self._invalid(entry, f"{str(exc).split('=')[0].split(' ')[0]} impossible")
+                continue
+            key = _KIND_KEYS[kind]
+            counters[key] = counters.get(key, 0) + 1
+            result.append(Measurement(kind, self.source, t, values, t_src))
+        return result
+
+    def _invalid(self, entry: _Type, why: object) -> None:
+        self._health.count(entry.invalid)
+        self._reporter.report(f"{entry.invalid}: {why}")
+
+    def _count_other(self, text: str, addr: str) -> None:
+        """Sentences not decoded: unknown types, proprietary, encapsulated, garbage."""
+        health = self._health
+        if len(addr) == 5 and addr.isalnum() and text[:1] == "!":
+            health.count("encapsulated." + addr[2:] if addr[2:].isalpha() else "encapsulated.other")
+        elif text[:1] == "$" and addr[:1] == "P" and len(addr) >= 2 and addr.isalnum():
+            health.count(self._unknown_key(addr))  # proprietary: $PASHR, $PFEC
+        elif len(addr) == 5 and addr.isalnum() and text[:1] == "$":
+            health.count(self._unknown_key(addr[2:]))
+        else:
+            health.count("malformed")
+
+    def _unknown_key(self, stype: str) -> str:
+        key = self._unknown.get(stype)
+        if key is None:
+            if len(self._unknown) >= MAX_UNKNOWN_KEYS:
+                return "unknown.other"  # bounded: garbage must not grow the counters
+            key = self._unknown[stype] = "unknown." + stype
+        return key

@@ -1,0 +1,360 @@
+"""One small function per sentence type: fields -> measurements in SI units.
+
+Each handler takes the sentence split at commas (index 0 the address, field positions
+from pynmea2's definitions, see `sentences.field_index`) and the decoder's read-only
+environment, and returns `Out`. A sentence that says its data is not valid (status
+`V`, GGA quality 0, FAA mode `N`) or lacks a field its measurement needs raises
+`Invalid`; an empty or malformed number raises ValueError, which the decoder treats
+the same way. Handlers do not validate ranges: the decoder runs
+`edged.records.validate_measurement` on everything they return.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+from edged.records import wrap_angle
+
+from .sentences import field_index
+from .timeofday import parse_tod
+
+KNOT = 1852.0 / 3600.0  # m/s
+KMH = 1.0 / 3.6  # m/s
+FOOT = 0.3048  # m
+FATHOM = 1.8288  # m
+DEG = math.pi / 180.0
+DEG_PER_MIN = DEG / 60.0  # rad/s
+
+
+class Invalid(Exception):
+    """The sentence carries no valid data (its own status says so, or fields are empty)."""
+
+
+class Env:
+    """What a handler may know beyond its sentence; owned and updated by the decoder."""
+
+    __slots__ = ("variation", "vbw_ground")
+
+    def __init__(self, variation: float | None = None, vbw_ground: bool = False) -> None:
+        #: Magnetic variation in degrees, east positive: from the latest RMC, else config.
+        self.variation = variation
+        self.vbw_ground = vbw_ground
+
+
+Items = list[tuple[str, dict[str, Any]]]
+
+
+#: What a handler returns, as a plain tuple (a NamedTuple costs a tenth of the
+#: per-sentence budget): (items, the sentence's UTC time of day for `t_src` or None,
+#: a magnetic variation in degrees east later sentences may use or None).
+Out = tuple[Items, "float | None", "float | None"]
+
+
+Handler = Callable[[list[str], Env], Out]
+
+
+# ---- field helpers -----------------------------------------------------------------
+
+def _opt(s: str) -> float | None:
+    return float(s) if s else None
+
+
+def _lat(value: str, hemi: str) -> float:
+    """`ddmm.mmmm` + N/S -> signed decimal degrees (empty -> Invalid)."""
+    v = float(value)  # empty: ValueError, which the decoder counts as invalid
+    deg = v // 100.0
+    minutes = v - deg * 100.0
+    if minutes >= 60.0 or v < 0.0:
+        raise Invalid("minutes out of range")
+    if hemi == "N":
+        return deg + minutes / 60.0
+    if hemi == "S":
+        return -(deg + minutes / 60.0)
+    raise Invalid("hemisphere")
+
+
+def _lon(value: str, hemi: str) -> float:
+    """`dddmm.mmmm` + E/W -> signed decimal degrees (empty -> Invalid)."""
+    v = float(value)
+    deg = v // 100.0
+    minutes = v - deg * 100.0
+    if minutes >= 60.0 or v < 0.0:
+        raise Invalid("minutes out of range")
+    if hemi == "E":
+        return deg + minutes / 60.0
+    if hemi == "W":
+        return -(deg + minutes / 60.0)
+    raise Invalid("hemisphere")
+
+
+def _signed(value: str, direction: str) -> float | None:
+    """A deviation/variation `x.x,E|W` in degrees, east positive; None when empty."""
+    if not value:
+        return None
+    v = float(value)
+    if direction == "W":
+        return -v
+    if direction == "E":
+        return v
+    raise Invalid("variation direction")
+
+
+def _faa_invalid(mode: str) -> bool:
+    """FAA mode indicator (NMEA 2.3+): `N` = data not valid; absent = older talker."""
+    return mode[:1] == "N"
+
+
+def _heading(magnetic_deg: float, variation: float | None) -> Items:
+    """A magnetic heading becomes true when a variation is known (DESIGN §2)."""
+    if variation is None:
+        return [("heading_magnetic", {"heading": wrap_angle(magnetic_deg * DEG)})]
+    return [("heading", {"heading": wrap_angle((magnetic_deg + variation) * DEG)})]
+
+
+def _get(f: list[str], i: int) -> str:
+    """Field `i`, or empty when a talker sent fewer fields than the standard has."""
+    return f[i] if i < len(f) else ""
+
+
+# ---- handlers ----------------------------------------------------------------------
+
+_GGA = field_index("GGA", "timestamp", "lat", "lat_dir", "lon", "lon_dir", "gps_qual", "num_sats", "horizontal_dil")
+
+
+def gga(f: list[str], env: Env) -> Out:
+    ts, la, lad, lo, lod, q, sats, hdop = _GGA
+    quality = int(f[q])
+    if quality == 0:
+        raise Invalid("fix quality 0")
+    h = f[hdop]
+    n = f[sats]
+    pos = {
+        "lat": _lat(f[la], f[lad]),
+        "lon": _lon(f[lo], f[lod]),
+        "fix_quality": quality,
+        "hdop": float(h) if h else None,
+        "sats": int(n) if n else None,
+    }
+    return [("position", pos)], parse_tod(f[ts]), None
+
+
+#: GNS mode characters (one per constellation) -> the GGA fix quality they correspond to.
+_GNS_QUALITY = {"A": 1, "D": 2, "P": 3, "R": 4, "F": 5, "E": 6, "M": 7, "S": 8}
+_GNS = field_index("GNS", "timestamp", "lat", "lat_dir", "lon", "lon_dir", "mode_indicator", "num_sats", "hdop")
+
+
+def gns(f: list[str], env: Env) -> Out:
+    ts, la, lad, lo, lod, mode, sats, hdop = _GNS
+    qualities = [_GNS_QUALITY[c] for c in f[mode] if c in _GNS_QUALITY]
+    if not qualities:
+        raise Invalid("no constellation has a fix")
+    pos = {
+        "lat": _lat(f[la], f[lad]),
+        "lon": _lon(f[lo], f[lod]),
+        "fix_quality": max(qualities),
+        "hdop": _opt(f[hdop]),
+        "sats": int(f[sats]) if f[sats] else None,
+    }
+    return [("position", pos)], parse_tod(f[ts]), None
+
+
+_RMC = field_index(
+    "RMC", "timestamp", "status", "lat", "lat_dir", "lon", "lon_dir", "spd_over_grnd", "true_course",
+    "mag_variation", "mag_var_dir", "mode_indicator",
+)
+
+
+def rmc(f: list[str], env: Env) -> Out:
+    ts, st, la, lad, lo, lod, sog, cog, var, vard, mode = _RMC
+    if f[st] != "A" or _faa_invalid(_get(f, mode)):
+        raise Invalid("status")
+    items: Items = [("position", {"lat": _lat(f[la], f[lad]), "lon": _lon(f[lo], f[lod])})]
+    if f[sog]:
+        course = f[cog]
+        items.append(
+            ("velocity_ground", {"sog": float(f[sog]) * KNOT, "cog": wrap_angle(float(course) * DEG) if course else None})
+        )
+    return items, parse_tod(f[ts]), _signed(_get(f, var), _get(f, vard))
+
+
+_GLL = field_index("GLL", "lat", "lat_dir", "lon", "lon_dir", "timestamp", "status", "faa_mode")
+
+
+def gll(f: list[str], env: Env) -> Out:
+    la, lad, lo, lod, ts, st, mode = _GLL
+    status = _get(f, st)
+    if (status and status != "A") or _faa_invalid(_get(f, mode)):  # pre-2.0 GLL has no status
+        raise Invalid("status")
+    pos = {"lat": _lat(f[la], f[lad]), "lon": _lon(f[lo], f[lod])}
+    return [("position", pos)], parse_tod(_get(f, ts)), None
+
+
+_VTG = field_index("VTG", "true_track", "spd_over_grnd_kts", "spd_over_grnd_kmph", "faa_mode")
+
+
+def vtg(f: list[str], env: Env) -> Out:
+    cog, kts, kmh, mode = _VTG
+    if _faa_invalid(_get(f, mode)):
+        raise Invalid("mode N")
+    if f[kts]:
+        sog = float(f[kts]) * KNOT
+    elif _get(f, kmh):
+        sog = float(f[kmh]) * KMH
+    else:
+        raise Invalid("no speed")
+    course = f[cog]
+    return [("velocity_ground", {"sog": sog, "cog": wrap_angle(float(course) * DEG) if course else None})], None, None
+
+
+_HDT = field_index("HDT", "heading")
+
+
+def hdt(f: list[str], env: Env) -> Out:
+    return [("heading", {"heading": wrap_angle(float(f[_HDT[0]]) * DEG)})], None, None
+
+
+_THS = field_index("THS", "heading", "mode")
+_THS_VALID = frozenset("AEM")  # autonomous, estimated (dead reckoning), manual input
+
+
+def ths(f: list[str], env: Env) -> Out:
+    h, mode = _THS
+    if _get(f, mode) not in _THS_VALID:
+        raise Invalid("mode")  # V invalid, S simulator
+    return [("heading", {"heading": wrap_angle(float(f[h]) * DEG)})], None, None
+
+
+_HDG = field_index("HDG", "heading", "deviation", "dev_dir", "variation", "var_dir")
+
+
+def hdg(f: list[str], env: Env) -> Out:
+    h, dev, devd, var, vard = _HDG
+    magnetic = float(f[h]) + (_signed(_get(f, dev), _get(f, devd)) or 0.0)
+    own = _signed(_get(f, var), _get(f, vard))
+    return _heading(magnetic, own if own is not None else env.variation), None, None
+
+
+_HDM = field_index("HDM", "heading")
+
+
+def hdm(f: list[str], env: Env) -> Out:
+    return _heading(float(f[_HDM[0]]), env.variation), None, None
+
+
+_ROT = field_index("ROT", "rate_of_turn", "status")
+
+
+def rot(f: list[str], env: Env) -> Out:
+    r, st = _ROT
+    if _get(f, st) != "A":
+        raise Invalid("status")
+    return [("yaw_rate", {"r": float(f[r]) * DEG_PER_MIN})], None, None
+
+
+_VBW = field_index(
+    "VBW", "lon_water_spd", "trans_water_spd", "data_validity_water_spd", "lon_grnd_spd", "trans_grnd_spd",
+    "data_validity_grnd_spd",
+)
+
+
+def vbw(f: list[str], env: Env) -> Out:
+    wl, wt, wst, gl, gt, gst = _VBW
+    items: Items = []
+    water_ok = _get(f, wst) == "A" and bool(f[wl])
+    ground_ok = _get(f, gst) == "A" and bool(_get(f, gl))
+    if not water_ok and not ground_ok:
+        raise Invalid("status")
+    if water_ok:
+        items.append(("water_speed", {"stw_long": float(f[wl]) * KNOT, "stw_trans": _knots(f[wt])}))
+    if ground_ok and env.vbw_ground:
+        # Ground speeds are along/across the hull: their direction needs the heading,
+        # so only the speed is stated here.
+        sog = math.hypot(float(f[gl]), float(_get(f, gt) or 0.0)) * KNOT
+        items.append(("velocity_ground", {"sog": sog, "cog": None}))
+    return items, None, None
+
+
+def _knots(s: str) -> float | None:
+    return float(s) * KNOT if s else None
+
+
+_VHW = field_index("VHW", "water_speed_knots", "water_speed_km")
+
+
+def vhw(f: list[str], env: Env) -> Out:
+    kts, kmh = _VHW
+    if _get(f, kts):
+        stw = float(f[kts]) * KNOT
+    elif _get(f, kmh):
+        stw = float(f[kmh]) * KMH
+    else:
+        raise Invalid("no speed")
+    return [("water_speed", {"stw_long": stw, "stw_trans": None})], None, None
+
+
+_VDR = field_index("VDR", "deg_t", "deg_m", "current")
+
+
+def vdr(f: list[str], env: Env) -> Out:
+    true, mag, drift = _VDR
+    if f[true]:
+        set_deg = float(f[true])
+    elif _get(f, mag) and env.variation is not None:
+        set_deg = float(f[mag]) + env.variation
+    else:
+        raise Invalid("no set")
+    return [("current", {"set": wrap_angle(set_deg * DEG), "drift": float(_get(f, drift)) * KNOT})], None, None
+
+
+_DPT = field_index("DPT", "depth", "offset")
+
+
+def dpt(f: list[str], env: Env) -> Out:
+    d, off = _DPT
+    return [("depth", {"depth": float(f[d]), "offset": _opt(_get(f, off))})], None, None
+
+
+_DBT = field_index("DBT", "depth_feet", "depth_meters", "depth_fathoms")
+
+
+def dbt(f: list[str], env: Env) -> Out:
+    ft, m, fa = _DBT
+    if _get(f, m):
+        depth = float(f[m])
+    elif f[ft]:
+        depth = float(f[ft]) * FOOT
+    elif _get(f, fa):
+        depth = float(f[fa]) * FATHOM
+    else:
+        raise Invalid("no depth")
+    return [("depth", {"depth": depth, "offset": None})], None, None
+
+
+_ZDA = field_index("ZDA", "timestamp")
+
+
+def zda(f: list[str], env: Env) -> Out:
+    """Time only (the replay reader takes the date); no measurement."""
+    return [], parse_tod(f[_ZDA[0]]), None
+
+
+#: Sentence type (talker stripped) -> handler. Everything else is `unknown.<TYPE>`.
+HANDLERS: dict[str, Handler] = {
+    "GGA": gga,
+    "GNS": gns,
+    "RMC": rmc,
+    "GLL": gll,
+    "VTG": vtg,
+    "HDT": hdt,
+    "THS": ths,
+    "HDG": hdg,
+    "HDM": hdm,
+    "ROT": rot,
+    "VBW": vbw,
+    "VHW": vhw,
+    "VDR": vdr,
+    "DPT": dpt,
+    "DBT": dbt,
+    "ZDA": zda,
+}

@@ -1,0 +1,81 @@
+"""The edged input plugin `nmea0183` (entry point group `edged.inputs`)."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, BinaryIO, ClassVar, Iterator
+
+from edged.health import ComponentHealth
+from edged.plugin import InputPlugin, PluginContext, ReplayOptions
+from edged.records import RawRecord
+
+from .config import Nmea0183Config
+from .decoder import DecoderSettings, Nmea0183Decoder
+from .framer import Framer
+from .link import Backoff, Link, Sleep
+from .replay import PROTOCOL, meta_of, read_log, sniff
+from .transports import make_transport
+
+
+class Nmea0183Input(InputPlugin):
+    """NMEA 0183 from a serial port, a TCP multiplexer, UDP datagrams or a file."""
+
+    Config: ClassVar[type[Nmea0183Config]] = Nmea0183Config
+    protocol: ClassVar[str] = PROTOCOL
+    description: ClassVar[str] = "NMEA 0183 sentences over serial, TCP, UDP or a file"
+
+    def __init__(self, config: Nmea0183Config, ctx: PluginContext, *, sleep: Sleep = asyncio.sleep) -> None:
+        super().__init__(config, ctx)
+        self._sleep = sleep  # injectable: tests run the backoff without waiting
+        self.transport = make_transport(config)
+
+    async def run(self) -> None:
+        cfg: Nmea0183Config = self.config
+        ctx = self.ctx
+        framer = Framer(ctx.health, cfg.checksum)
+        now = ctx.clock.now
+        ingest = ctx.ingest
+        count = ctx.health.count
+        source = ctx.name
+        datagrams = self.transport.message_oriented
+
+        def emit(framed: list) -> None:
+            for fr in framed:
+                count("accepted")
+                ingest(RawRecord(PROTOCOL, source, now(), fr.sentence, meta_of(fr)))
+
+        def on_data(chunk: bytes) -> None:
+            emit(framer.feed(chunk))
+            if datagrams:
+                emit(framer.flush())  # a datagram's last line needs no line end
+
+        def on_end() -> None:
+            # A file's last line may lack its line end; a broken connection's partial
+            # line is a fragment and is dropped.
+            if self.transport.finite:
+                emit(framer.flush())
+            framer.reset()
+
+        link = Link(
+            self.transport,
+            ctx.health,
+            watchdog=cfg.watchdog,
+            backoff=Backoff(cfg.backoff_initial, cfg.backoff_max),
+            sleep=self._sleep,
+        )
+        await link.run(on_data, on_end)
+        await asyncio.Event().wait()  # a finished file: stay until cancelled, as run() must
+
+    @classmethod
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Nmea0183Decoder:
+        return Nmea0183Decoder(source, health, DecoderSettings.from_config(config))
+
+    @classmethod
+    def sniff(cls, head: bytes) -> bool:
+        return sniff(head)
+
+    @classmethod
+    def open_replay(
+        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
+    ) -> Iterator[RawRecord]:
+        return read_log(stream, source, health, options)

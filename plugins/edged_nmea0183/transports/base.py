@@ -1,0 +1,44 @@
+"""The interface every transport implements (in the spirit of python-can's BusABC).
+
+A transport only moves bytes: `open`, `read` (some bytes; b"" at end of stream),
+`close`. Staying open, the watchdog, reconnecting and backoff are the link's job
+(`edged_nmea0183.link`), so each transport stays a few lines of asyncio.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any, ClassVar
+
+
+class Transport(ABC):
+    #: True when each `read` returns whole datagrams: a line ends with its datagram.
+    message_oriented: ClassVar[bool] = False
+
+    @classmethod
+    @abstractmethod
+    def from_config(cls, config: Any) -> "Transport": ...
+
+    @abstractmethod
+    async def open(self) -> None:
+        """Connect; raise OSError when the peer or device is not there."""
+
+    @abstractmethod
+    async def read(self) -> bytes:
+        """The next bytes received; b"" when the peer closed the stream.
+
+        Raises OSError when the link breaks (a serial adapter unplugged).
+        """
+
+    @abstractmethod
+    async def close(self) -> None:
+        """Release the link; safe to call when not open."""
+
+    @property
+    def finite(self) -> bool:
+        """True when end of stream means "done" (a regular file), not "reconnect"."""
+        return False
+
+    @abstractmethod
+    def describe(self) -> str:
+        """Where it reads from, for logs and health (`tcp 10.0.0.5:10110`)."""
