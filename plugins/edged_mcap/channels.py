@@ -75,6 +75,10 @@ def _finite(o: Any) -> Any:
     return o
 
 
+#: One encoder for every message: `json.dumps` with options builds a new one per call.
+_STRICT = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_jsonable).encode
+
+
 def dumps(payload: dict[str, Any]) -> tuple[bytes, bool]:
     """Compact JSON bytes, and whether non-finite numbers had to become null.
 
@@ -82,10 +86,10 @@ def dumps(payload: dict[str, Any]) -> tuple[bytes, bool]:
     messages if they appear, so they are recorded as null and counted by the caller.
     """
     try:
-        return json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_jsonable).encode(), False
+        return _STRICT(payload).encode(), False
     except ValueError:
         clean = _finite(json.loads(json.dumps(payload, default=_jsonable)))
-        return json.dumps(clean, separators=(",", ":"), allow_nan=False).encode(), True
+        return _STRICT(clean).encode(), True
 
 
 # -- raw records --------------------------------------------------------------------

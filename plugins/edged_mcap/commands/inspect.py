@@ -16,7 +16,8 @@ from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
 def _utc(ns: int | None) -> str:
     if ns is None:
         return "-"
-    return datetime.fromtimestamp(ns / 1e9, tz=timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")[:-4] + "Z"
+    d = datetime.fromtimestamp(ns // 1_000_000_000, tz=timezone.utc)
+    return d.strftime("%Y-%m-%dT%H:%M:%S") + f".{ns % 1_000_000_000 // 1_000_000:03d}Z"
 
 
 def _health(s: FileStats) -> str:

@@ -74,7 +74,9 @@ def render(data: PlotData, out: Path, title: str) -> list[str]:
     if not drawers:
         return []
     heights = [3.0 if name == "track" else 1.0 for name, _ in drawers]
-    fig, axes = plt.subplots(len(drawers), 1, figsize=(10, 2.6 * sum(heights) + 1), height_ratios=heights, squeeze=False)
+    fig, axes = plt.subplots(
+        len(drawers), 1, figsize=(10, 2.6 * sum(heights) + 1), height_ratios=heights, squeeze=False, layout="constrained"
+    )
     try:
         time_axes = []
         for ax, (name, draw) in zip(axes[:, 0], drawers):
@@ -86,7 +88,6 @@ def render(data: PlotData, out: Path, title: str) -> list[str]:
         if time_axes:
             time_axes[-1].set_xlabel("minutes since start of recording")
         fig.suptitle(title)
-        fig.tight_layout()
         fig.savefig(out, dpi=110)
     finally:
         plt.close(fig)

@@ -1,0 +1,141 @@
+"""`edged inspect`, `export` and `plot` on recordings, through the real CLI."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import io
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from edged.cli import main as cli
+from edged.records import Estimate, Measurement
+
+
+@pytest.fixture
+def recording(make_rig, tmp_path, sample) -> Path:
+    path = tmp_path / "voyage.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    recs = sample(seconds=5)
+    # A 30 s silence of the log, for the gap report.
+    recs += [Measurement("water_speed", "log1", 1_732_350_000.0 + s, {"stw_long": 5.0}) for s in (0, 1, 31, 32)]
+    rig.rec.write(recs)
+    rig.close()
+    return path
+
+
+def test_inspect_lists_channels_counts_rates_span_and_gaps(recording, capsys):
+    assert cli(["inspect", str(recording)]) == 0
+    out = capsys.readouterr().out
+    assert "finished, summary present" in out
+    assert "vessel    ship1" in out
+    lines = {ln.split()[0]: ln.split() for ln in out.splitlines() if ln.startswith("/")}
+    assert lines["/raw/can/can0"][1:3] == ["edged.raw.can", "300"]
+    assert float(lines["/raw/nmea0183/gnss1"][3]) == pytest.approx(49 / 4.9, rel=1e-6)  # 50 in 4.9 s
+    log = lines["/meas/water_speed/log1"]
+    assert log[2] == "4" and float(log[5]) == pytest.approx(30.0)  # largest gap 30 s
+    assert "span      2024-11-23T08:20:00.000Z .. 2024-11-23T08:20:32.000Z" in out
+
+
+def test_inspect_says_a_file_is_unfinished(recording, tmp_path, capsys):
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(recording.read_bytes()[:-2000])
+    assert cli(["inspect", str(cut)]) == 0
+    out = capsys.readouterr().out
+    assert "UNFINISHED" in out and "edged recover" in out
+
+
+def test_inspect_and_export_reject_bad_files(tmp_path, capsys):
+    assert cli(["inspect", str(tmp_path / "nope.mcap")]) == 2
+    bad = tmp_path / "bad.mcap"
+    bad.write_text("hello")
+    assert cli(["inspect", str(bad)]) == 1
+    assert cli(["export", str(bad), "--topic", "/health"]) == 1
+    assert "MCAP" in capsys.readouterr().err
+
+
+def test_export_csv_has_flat_columns(recording, tmp_path):
+    out = tmp_path / "draft.csv"
+    assert cli(["export", str(recording), "--topic", "/est/draft", "-o", str(out)]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert len(rows) == 50
+    assert {"log_time", "t", "marks.fore.mean", "marks.aft.mean", "mean_draft", "trim"} <= set(rows[0])
+    assert float(rows[0]["marks.aft.mean"]) == 8.5
+    assert float(rows[0]["t"]) == 1_732_350_000.0
+
+
+def test_export_jsonl_to_stdout(recording, capsys):
+    assert cli(["export", str(recording), "--topic", "/location/gnss1", "--format", "jsonl"]) == 0
+    rows = [json.loads(ln) for ln in capsys.readouterr().out.splitlines()]
+    assert len(rows) == 50
+    assert {"timestamp.sec", "timestamp.nsec", "latitude", "position_covariance"} <= set(rows[0])
+    assert json.loads(rows[0]["position_covariance"]) == [0.0] * 9  # lists stay one cell
+
+
+def test_export_unknown_topic_names_the_known_ones(recording, tmp_path, capsys):
+    out = tmp_path / "x.csv"
+    assert cli(["export", str(recording), "--topic", "/est/nothing", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "/est/nothing" in err and "/est/stw" in err
+    assert not out.exists()
+
+
+def test_export_keeps_null_and_full_float_precision(make_rig, tmp_path, capsys):
+    path = tmp_path / "p.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    rig.rec.write([Estimate("stw", "stw", 1.0 / 3.0, {"stw": math.pi, "dvl_stw": None})])
+    rig.close()
+    assert cli(["export", str(path), "--topic", "/est/stw"]) == 0
+    (row,) = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))
+    assert float(row["stw"]) == math.pi and float(row["t"]) == 1.0 / 3.0 and row["dvl_stw"] == ""
+
+
+_HAVE_MPL = importlib.util.find_spec("matplotlib") is not None
+
+
+@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
+def test_plot_draws_the_panels_that_have_data(recording, tmp_path, capsys):
+    out = tmp_path / "report.png"
+    assert cli(["plot", str(recording), "-o", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    err = capsys.readouterr().err
+    for panel in ("track", "speed", "motion", "rate", "draft", "trim"):
+        assert panel in err
+
+
+@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
+def test_plot_without_plottable_data_fails_clearly(make_rig, tmp_path, capsys):
+    path = tmp_path / "h.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    rig.close()
+    assert cli(["plot", str(path), "-o", str(tmp_path / "r.png")]) == 1
+    assert "nothing to plot" in capsys.readouterr().err
+
+
+def test_plot_without_matplotlib_names_the_extra(recording, tmp_path, capsys, monkeypatch):
+    from edged_mcap.commands import plot
+
+    monkeypatch.setattr(plot, "_have_matplotlib", lambda: False)
+    assert cli(["plot", str(recording), "-o", str(tmp_path / "r.png")]) == 1
+    assert "pip install 'edged[plot]'" in capsys.readouterr().err
+
+
+def test_plot_data_uses_raw_drafts_without_an_estimate_and_a_local_metric_track(make_rig, tmp_path):
+    from edged_mcap.plotdata import collect, local_xy
+
+    path = tmp_path / "d.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    rig.rec.write([Measurement("draft", "can0.DraftMark", 10.0 + i, {"mark": "fore_port", "draft": 7.5, "status": 0}) for i in range(3)])
+    rig.close()
+    data = collect(path)
+    assert list(data.panel("draft")) == ["fore_port"]
+    xs, ys = local_xy([60.0, 60.001], [23.0, 23.002], 60.0, 23.0)
+    assert ys[1] == pytest.approx(111.2, abs=0.1)  # 0.001° of latitude
+    assert xs[1] == pytest.approx(2 * 111.2 * 0.5, abs=0.1)  # cos 60° = 0.5
