@@ -13,6 +13,9 @@ __all__ = ["DataTimeRateLimiter"]
 # Time may step back by this much (seconds) before the limiter assumes a new
 # recording started and forgets the past; smaller steps are reordering and dropped.
 _RESTART_AFTER = 1.0
+# A record this fraction of a period before its slot is on time: UNIX seconds carry
+# only ~0.2 µs of resolution, so exact comparisons would drop records at random.
+_EARLY = 1e-3
 
 
 class DataTimeRateLimiter:
@@ -37,7 +40,7 @@ class DataTimeRateLimiter:
         if nxt is None or t < nxt - period - _RESTART_AFTER:
             self._next[key] = t + period
             return True
-        if t + 1e-9 < nxt:
+        if t < nxt - _EARLY * period:
             return False
         self._next[key] = t + period if t >= nxt + period else nxt + period
         return True
