@@ -1,0 +1,35 @@
+"""`edged sim SCENARIO --out DIR [--duration S] [--seed N]` (DESIGN §4)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .run import Simulation
+from .scenarios import SCENARIOS
+from .writers import write_run
+
+EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
+
+
+def main(args: argparse.Namespace) -> int:
+    scenario = SCENARIOS.get(args.scenario)
+    if scenario is None:
+        names = "\n".join(f"  {n:24s} {s.description}" for n, s in SCENARIOS.items())
+        print(f"edged sim: unknown scenario {args.scenario!r}; scenarios:\n{names}", file=sys.stderr)
+        return EXIT_USAGE
+    duration = getattr(args, "duration", None)
+    if duration is not None and not duration > 0:
+        print(f"edged sim: --duration must be positive, got {duration}", file=sys.stderr)
+        return EXIT_USAGE
+    out = Path(args.out)
+    sim = Simulation(scenario, seed=int(getattr(args, "seed", 0) or 0), duration=duration)
+    try:
+        meta = write_run(sim, out)
+    except OSError as exc:
+        print(f"edged sim: cannot write {out}: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    files = ", ".join(f"{k} {v}" for k, v in meta["files"].items())
+    print(f"{scenario.name}: {sim.duration:.0f} s, seed {sim.seed} -> {out} ({files})")
+    return EXIT_OK

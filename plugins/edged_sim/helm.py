@@ -1,0 +1,137 @@
+"""Orders to the rudder and the engine: scheduled manoeuvres and zigzag tests.
+
+A manoeuvre is data: a sequence of steps, each fired by a trigger (a time, or the
+heading passing a value in either direction, as the officer of the watch would do it).
+A helm is the stateful thing that plays a sequence back against the simulated heading;
+the integrator asks it for the orders once per step and holds them over the step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from .geo import KNOT
+from .ship import ShipParticulars, steady_thrust_speed
+
+
+def _heading_diff(a: float, b: float) -> float:
+    """a − b onto (−π, π]."""
+    return math.pi - math.fmod(math.pi - (a - b) + 8.0 * math.pi, 2.0 * math.pi)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One order. `at_s` or `heading_deg` fires it (the first that is set)."""
+
+    at_s: float | None = None
+    heading_deg: float | None = None
+    rudder_deg: float | None = None  #: + starboard; None keeps the current order
+    speed_kn: float | None = None  #: speed through water ordered; None keeps it
+    ramp_s: float = 0.0  #: seconds to go from the present speed order to the new one
+
+
+class Helm(Protocol):
+    def orders(self, t: float, psi: float) -> tuple[float, float]:
+        """(rudder command rad, thrust speed m/s) at time t with heading psi."""
+        ...
+
+
+class _SpeedRamp:
+    """Speed reference moving linearly to a new value, fed forward to the surge model."""
+
+    def __init__(self, speed: float, ship: ShipParticulars) -> None:
+        self.ship = ship
+        self.start_t, self.start_v, self.end_t, self.end_v = 0.0, speed, 0.0, speed
+
+    def set(self, t: float, speed: float, ramp_s: float) -> None:
+        self.start_v = self.reference(t)[0]
+        self.start_t, self.end_t, self.end_v = t, t + max(ramp_s, 0.0), speed
+
+    def reference(self, t: float) -> tuple[float, float]:
+        if t >= self.end_t or self.end_t <= self.start_t:
+            return self.end_v, 0.0
+        slope = (self.end_v - self.start_v) / (self.end_t - self.start_t)
+        return self.start_v + slope * (t - self.start_t), slope
+
+    def thrust(self, t: float) -> float:
+        return steady_thrust_speed(*self.reference(t), self.ship)
+
+
+@dataclass(frozen=True)
+class Manoeuvre:
+    """A sequence of orders from an initial speed (knots) and rudder (degrees)."""
+
+    speed_kn: float
+    steps: tuple[Step, ...] = ()
+    rudder_deg: float = 0.0
+
+    def make(self, ship: ShipParticulars) -> "SequenceHelm":
+        return SequenceHelm(self, ship)
+
+
+class SequenceHelm:
+    """Plays a `Manoeuvre` back: each step waits for its trigger, in order."""
+
+    def __init__(self, spec: Manoeuvre, ship: ShipParticulars) -> None:
+        self.spec = spec
+        self.next = 0
+        self.rudder = math.radians(spec.rudder_deg)
+        self.speed = _SpeedRamp(spec.speed_kn * KNOT, ship)
+        self.prev_psi: float | None = None
+        self.fired: list[tuple[int, float]] = []  #: (step index, time) for the record
+
+    def _due(self, step: Step, t: float, psi: float) -> bool:
+        if step.at_s is not None:
+            return t >= step.at_s
+        if step.heading_deg is None or self.prev_psi is None:
+            return False
+        target = math.radians(step.heading_deg)
+        before, now = _heading_diff(self.prev_psi, target), _heading_diff(psi, target)
+        return before * now <= 0.0 and abs(before - now) < math.pi / 2 and before != now
+
+    def orders(self, t: float, psi: float) -> tuple[float, float]:
+        steps = self.spec.steps
+        while self.next < len(steps) and self._due(steps[self.next], t, psi):
+            step = steps[self.next]
+            if step.rudder_deg is not None:
+                self.rudder = math.radians(step.rudder_deg)
+            if step.speed_kn is not None:
+                self.speed.set(t, step.speed_kn * KNOT, step.ramp_s)
+            self.fired.append((self.next, t))
+            self.next += 1
+        self.prev_psi = psi
+        return self.rudder, self.speed.thrust(t)
+
+
+@dataclass(frozen=True)
+class ZigZag:
+    """The classic z-manoeuvre: rudder ± `rudder_deg` at ± `heading_deg` from a base."""
+
+    speed_kn: float
+    base_heading_deg: float
+    rudder_deg: float = 20.0
+    heading_deg: float = 20.0
+    start_s: float = 60.0
+
+    def make(self, ship: ShipParticulars) -> "ZigZagHelm":
+        return ZigZagHelm(self, ship)
+
+
+class ZigZagHelm:
+    def __init__(self, spec: ZigZag, ship: ShipParticulars) -> None:
+        self.spec = spec
+        self.side = 1.0  # first order to starboard
+        self.speed = _SpeedRamp(spec.speed_kn * KNOT, ship)
+        self.fired: list[tuple[int, float]] = []
+
+    def orders(self, t: float, psi: float) -> tuple[float, float]:
+        s = self.spec
+        if t < s.start_s:
+            return 0.0, self.speed.thrust(t)
+        dev = _heading_diff(psi, math.radians(s.base_heading_deg))
+        if self.side * dev >= math.radians(s.heading_deg):
+            self.side = -self.side
+            self.fired.append((len(self.fired), t))
+        return self.side * math.radians(s.rudder_deg), self.speed.thrust(t)

@@ -1,0 +1,172 @@
+"""Sensor models: what an instrument reports, given the truth at its sampling instants.
+
+A sensor is data (`SensorSpec`): a measurement model, a rate, its errors (white noise,
+bias, resolution, lost samples, outages, position jumps) and the formats it sends.
+The measurement models are a table keyed by name; each turns truth samples into the
+values the formats encode, in SI units. Every sensor draws from its own random stream
+(seeded by the run's seed and the sensor's name), so adding a sensor to a scenario
+does not change the noise of the others.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from .geo import LocalFrame, wrap_2pi
+
+#: Fields that are true angles on [0, 2π).
+ANGLES = frozenset({"heading", "cog", "set", "yaw"})
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    name: str  #: unique in a scenario, e.g. "gnss1.position"
+    model: str  #: key of MODELS
+    rate_hz: float
+    outputs: tuple[str, ...]  #: encoder keys, e.g. ("nmea:GGA", "n2k:129025")
+    noise: Mapping[str, float] = field(default_factory=dict)  #: 1-σ per field (SI)
+    bias: Mapping[str, float] = field(default_factory=dict)
+    quantum: Mapping[str, float] = field(default_factory=dict)  #: the instrument's resolution
+    dropout: float = 0.0  #: probability that a sample is lost
+    outages: tuple[tuple[float, float], ...] = ()  #: (start, end) s without output
+    #: Position glitches: (start s, end s, north m, east m) added to the position.
+    jumps: tuple[tuple[float, float, float, float], ...] = ()
+    offset_ms: int = 0  #: phase of the sampling grid, so instruments do not all fire together
+    talker: str = "GP"  #: NMEA 0183 talker
+    address: int = 0  #: NMEA 2000 source address
+    mark: str = ""  #: draft sensors: which mark
+
+    @property
+    def period_ms(self) -> int:
+        return int(round(1000.0 / self.rate_hz))
+
+    def sample_times_ms(self, start_ms: int, end_ms: int) -> np.ndarray:
+        """Sampling instants in [start_ms, end_ms), on the sensor's own grid."""
+        p = self.period_ms
+        first = -(-(start_ms - self.offset_ms) // p)
+        last = -(-(end_ms - self.offset_ms) // p)
+        return self.offset_ms + np.arange(first, last, dtype=np.int64) * p
+
+    def rng(self, seed: int) -> np.random.Generator:
+        return np.random.default_rng([seed, zlib.crc32(self.name.encode())])
+
+    def without_errors(self) -> "SensorSpec":
+        """The same instrument, perfect: for tests that compare a log with the truth."""
+        from dataclasses import replace
+
+        return replace(self, noise={}, bias={}, quantum={}, dropout=0.0, outages=(), jumps=())
+
+
+Truth = Mapping[str, np.ndarray]
+Model = Callable[[Truth, SensorSpec, np.random.Generator, LocalFrame], dict[str, np.ndarray]]
+
+
+def perturb(values: dict[str, np.ndarray], spec: SensorSpec, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Bias, white noise and resolution on the fields the spec names (in field order,
+    so the random draws are reproducible)."""
+    for name in values:
+        x = values[name]
+        if name in spec.bias:
+            x = x + spec.bias[name]
+        if name in spec.noise:
+            x = x + spec.noise[name] * rng.standard_normal(x.shape)
+        if name in spec.quantum:
+            q = spec.quantum[name]
+            x = np.round(x / q) * q
+        values[name] = wrap_2pi(x) if name in ANGLES else x
+    return values
+
+
+def _position(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    n = np.array(tr["x"], dtype=float)
+    e = np.array(tr["y"], dtype=float)
+    sigma = spec.noise.get("position", 0.0)
+    if sigma:
+        n = n + sigma * rng.standard_normal(n.shape)
+        e = e + sigma * rng.standard_normal(e.shape)
+    for start, end, dn, de in spec.jumps:
+        inside = (tr["t_rel"] >= start) & (tr["t_rel"] < end)
+        n, e = n + dn * inside, e + de * inside
+    lat, lon = frame.to_geodetic(n, e)
+    one = np.ones_like(n)
+    return {"lat": lat, "lon": lon, "fix_quality": one, "sats": 12 * one, "hdop": 0.9 * one}
+
+
+def _velocity_ground(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    # Noise on the velocity vector, not on speed and course: COG is noisy at low speed.
+    vn = tr["sog"] * np.cos(tr["cog"])
+    ve = tr["sog"] * np.sin(tr["cog"])
+    sigma = spec.noise.get("velocity", 0.0)
+    if sigma:
+        vn = vn + sigma * rng.standard_normal(vn.shape)
+        ve = ve + sigma * rng.standard_normal(ve.shape)
+    return {"sog": np.hypot(vn, ve), "cog": wrap_2pi(np.arctan2(ve, vn))}
+
+
+def _fields(*names: str, **renamed: str) -> Model:
+    """A model that reports truth fields as they are (then `perturb` adds the errors)."""
+
+    def model(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+        out = {n: np.array(tr[n], dtype=float) for n in names}
+        out.update({k: np.array(tr[v], dtype=float) for k, v in renamed.items()})
+        return perturb(out, spec, rng)
+
+    return model
+
+
+def _time(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    return {}
+
+
+def _water_speed(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    out = perturb({"stw_long": np.array(tr["stw_long"]), "stw_trans": np.array(tr["stw_trans"])}, spec, rng)
+    out["ground_long"], out["ground_trans"] = np.array(tr["u"]), np.array(tr["v"])
+    return out
+
+
+def _depth(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    out = perturb({"depth": np.array(tr["depth_below_transducer"])}, spec, rng)
+    out["offset"] = np.full_like(out["depth"], spec.bias.get("offset", 0.0))
+    return out
+
+
+def _draft(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    out = perturb({"draft": np.array(tr[f"draft_{spec.mark}"])}, spec, rng)
+    out["status"] = np.zeros_like(out["draft"])
+    return out
+
+
+#: Measurement models by name.
+MODELS: dict[str, Model] = {
+    "position": _position,
+    "velocity_ground": _velocity_ground,
+    "time": _time,
+    "heading": _fields("heading"),
+    "yaw_rate": _fields("r"),
+    "imu_accel": _fields("ax", "ay", "az"),
+    "imu_rate": _fields("r", "roll_rate", "pitch_rate"),
+    "attitude": _fields("roll", "pitch", "heave", yaw="heading"),
+    "water_speed": _water_speed,
+    "current": _fields(set="current_set", drift="current_drift"),
+    "depth": _depth,
+    "draft": _draft,
+}
+
+
+def measure(spec: SensorSpec, truth: Truth, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    """The values a sensor reports at the instants `truth` was sampled at."""
+    return MODELS[spec.model](truth, spec, rng, frame)
+
+
+def kept(spec: SensorSpec, t_rel: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Mask of samples that are not lost (random dropouts and outages)."""
+    keep = np.ones(t_rel.shape, dtype=bool)
+    if spec.dropout > 0.0:
+        keep &= rng.uniform(size=t_rel.shape) >= spec.dropout
+    for start, end in spec.outages:
+        keep &= ~((t_rel >= start) & (t_rel < end))
+    return keep

@@ -1,0 +1,148 @@
+"""Waves and the hull's response to them: heave, pitch and roll.
+
+Sea states are sums of long-crested regular components (one for a regular sea, a
+JONSWAP spectrum cut into components with random phases for an irregular one). The hull
+responds quasi-statically in heave and pitch — it follows the elevation and slope
+averaged over its length and beam, which is what makes long ships ride through short
+waves — and as a damped oscillator in roll, so that beam seas near the roll period
+build up. Everything is written with complex amplitudes at the encounter frequency:
+the response of one component at one instant is `Re(H·a·e^{iΦ})`.
+
+Directions: `from_deg` is where the waves come from (true), as a mariner reports
+them; μ is the propagation direction relative to the bow (0 following, π head seas).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+G = 9.80665
+
+
+@dataclass(frozen=True)
+class Components:
+    amplitude: np.ndarray  #: m
+    omega: np.ndarray  #: rad/s, absolute frequency
+    k: np.ndarray  #: rad/m, deep-water wave number
+    toward: np.ndarray  #: rad, propagation direction (true)
+    phase: np.ndarray  #: rad, phase at t = 0
+
+    @property
+    def size(self) -> int:
+        return int(self.amplitude.size)
+
+
+def _deep(omega: np.ndarray) -> np.ndarray:
+    return omega * omega / G
+
+
+@dataclass(frozen=True)
+class Calm:
+    def components(self, rng: np.random.Generator) -> Components:
+        z = np.zeros(0)
+        return Components(z, z, z, z, z)
+
+
+@dataclass(frozen=True)
+class RegularWaves:
+    amplitude: float  #: m
+    period: float  #: s
+    from_deg: float = 0.0
+
+    def components(self, rng: np.random.Generator) -> Components:
+        w = np.array([2.0 * np.pi / self.period])
+        toward = np.array([np.radians(self.from_deg + 180.0)])
+        return Components(np.array([self.amplitude]), w, _deep(w), toward, rng.uniform(0, 2 * np.pi, 1))
+
+
+@dataclass(frozen=True)
+class JonswapWaves:
+    """JONSWAP spectrum (γ = 1 is Pierson–Moskowitz) scaled to the significant height."""
+
+    hs: float  #: m, significant wave height
+    tp: float  #: s, peak period
+    from_deg: float = 0.0
+    gamma: float = 3.3
+    n: int = 40
+
+    def components(self, rng: np.random.Generator) -> Components:
+        wp = 2.0 * np.pi / self.tp
+        edges = np.linspace(0.5 * wp, 3.0 * wp, self.n + 1)
+        dw = np.diff(edges)
+        w = edges[:-1] + dw * rng.uniform(0.0, 1.0, self.n)  # random within bins: no repeat period
+        sigma = np.where(w <= wp, 0.07, 0.09)
+        shape = w**-5 * np.exp(-1.25 * (wp / w) ** 4) * self.gamma ** np.exp(-((w - wp) ** 2) / (2 * sigma**2 * wp**2))
+        m0 = np.sum(shape * dw)
+        s = shape * (self.hs / 4.0) ** 2 / m0  # Hs = 4·sqrt(m0)
+        amp = np.sqrt(2.0 * s * dw)
+        toward = np.full(self.n, np.radians(self.from_deg + 180.0))
+        return Components(amp, w, _deep(w), toward, rng.uniform(0, 2 * np.pi, self.n))
+
+
+def _sinc(x: np.ndarray) -> np.ndarray:
+    return np.sinc(x / np.pi)
+
+
+def _slope_factor(x: np.ndarray) -> np.ndarray:
+    """Mean slope over a hull of half-length L/2, relative to the slope at midships:
+    3·(sin x − x·cos x)/x³ with x = k·(L/2)·cos μ (→ 1 for long waves)."""
+    x = np.where(np.abs(x) < 1e-3, 1e-3, x)
+    return 3.0 * (np.sin(x) - x * np.cos(x)) / x**3
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Heave (+ down), pitch (+ bow up), roll (+ starboard down) and their rates."""
+
+    heave: np.ndarray
+    pitch: np.ndarray
+    roll: np.ndarray
+    heave_rate: np.ndarray
+    pitch_rate: np.ndarray
+    roll_rate: np.ndarray
+    heave_acc: np.ndarray
+
+
+def encounter_frequency(comp: Components, psi: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """ω_e = ω − k·U·cos μ per sample (rows) and component (columns)."""
+    mu = comp.toward[None, :] - psi[:, None]
+    return comp.omega[None, :] - comp.k[None, :] * u[:, None] * np.cos(mu)
+
+
+def response(
+    comp: Components,
+    phase: np.ndarray,
+    psi: np.ndarray,
+    u: np.ndarray,
+    length: float,
+    beam: float,
+    roll_period: float,
+    roll_damping: float,
+) -> Motion:
+    """Hull motion at samples whose component phases are `phase` (samples × comps)."""
+    n = psi.size
+    if comp.size == 0:
+        z = np.zeros(n)
+        return Motion(z, z, z, z, z, z, z)
+    mu = comp.toward[None, :] - psi[:, None]
+    we = encounter_frequency(comp, psi, u)
+    k = comp.k[None, :]
+    cm, sm = np.cos(mu), np.sin(mu)
+    e = comp.amplitude[None, :] * np.exp(1j * phase)
+    h_heave = _sinc(k * length * cm / 2.0) * _sinc(k * beam * sm / 2.0)
+    h_pitch = -1j * k * cm * _slope_factor(k * length * cm / 2.0)
+    rho = np.abs(we) * roll_period / (2.0 * np.pi)
+    h_roll = 1j * k * sm * _slope_factor(k * beam * sm / 2.0) / (1.0 - rho**2 + 2j * roll_damping * rho)
+    heave_c, pitch_c, roll_c = -h_heave * e, h_pitch * e, h_roll * e
+    iw = 1j * we
+    return Motion(
+        heave=heave_c.real.sum(axis=1),
+        pitch=pitch_c.real.sum(axis=1),
+        roll=roll_c.real.sum(axis=1),
+        heave_rate=(iw * heave_c).real.sum(axis=1),
+        pitch_rate=(iw * pitch_c).real.sum(axis=1),
+        roll_rate=(iw * roll_c).real.sum(axis=1),
+        heave_acc=(iw * iw * heave_c).real.sum(axis=1),
+    )
