@@ -100,27 +100,11 @@ def _raw_nmea(r: RawRecord) -> dict[str, Any]:
         return {"t": r.t, "data_hex": r.data.hex(), "meta": r.meta}
 
 
-#: Keys under which CAN inputs may put the identifier and its width in `meta`.
-_CAN_ID_KEYS = ("id", "arbitration_id", "can_id")
-_CAN_EXT_KEYS = ("ext", "is_extended_id", "extended")
-
-
-def _first(meta: Any, keys: tuple[str, ...]) -> Any:
-    if isinstance(meta, dict):
-        for k in keys:
-            if k in meta:
-                return meta[k]
-    return None
-
-
 def _raw_can(r: RawRecord) -> dict[str, Any]:
-    return {
-        "t": r.t,
-        "id": _first(r.meta, _CAN_ID_KEYS),
-        "ext": _first(r.meta, _CAN_EXT_KEYS),
-        "data": r.data.hex(),
-        "meta": r.meta,
-    }
+    # The CAN input puts the identifier and its width in meta {"id", "ext"}; they are
+    # also top-level fields so that tools can filter frames without knowing edged.
+    meta = r.meta if isinstance(r.meta, dict) else {}
+    return {"t": r.t, "id": meta.get("id"), "ext": meta.get("ext"), "data": r.data.hex(), "meta": r.meta}
 
 
 def _raw_other(r: RawRecord) -> dict[str, Any]:
