@@ -10,7 +10,6 @@ fsync) about every second, driven by the runtime's `flush()`.
 from __future__ import annotations
 
 import errno
-import math
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, ClassVar, Iterator
 
@@ -36,6 +35,9 @@ RECORDING = "recording"
 DISK_LOW = "disk_low"  # free space below the floor: stopped on purpose, resumes by itself
 DISK_FULL = "disk_full"  # a write failed for lack of space
 FAILED = "failed"  # any other write or open error
+
+#: Log times are uint64 nanoseconds: data time must lie in [1970, 2554).
+MAX_T = (2**64 - 1) / 1e9
 
 
 def _default_opener(path: Path, mode: str) -> BinaryIO:
@@ -91,10 +93,14 @@ class McapRecorder(OutputPlugin):
                 health.count("rejected.unknown_record")
                 health.error(f"not a record edged knows: {type(rec).__name__}")
                 continue
+            except (AttributeError, TypeError, ValueError) as exc:  # e.g. raw data that is not bytes
+                health.count("rejected.malformed")
+                health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
+                continue
             t = getattr(rec, "t", None)
-            if not isinstance(t, (int, float)) or not math.isfinite(t):
+            if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
                 health.count("rejected.bad_time")
-                health.error(f"record without a finite time: {t!r} ({type(rec).__name__})")
+                health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
                 continue
             log = to_ns(t)
             try:

@@ -118,12 +118,15 @@ def test_unknown_records_bad_times_and_unencodable_values_are_counted(make_rig, 
     recs = [
         object(),
         RawRecord("nmea0183", "g", math.nan, b"$B*00", None),
+        RawRecord("nmea0183", "g", -1.0, b"$B*00", None),  # before 1970: not an MCAP time
+        RawRecord("nmea0183", "g", 2e10, b"$B*00", None),  # beyond uint64 nanoseconds
+        RawRecord("can", "can0", 1.0, "not bytes", {"id": 1, "ext": False}),
         Estimate("stw", "stw", 1.0, {"x": object()}),
         good,
     ]
     rig, path = _record(make_rig, tmp_path, recs)
     c = rig.health.counters
-    assert (c["rejected.unknown_record"], c["rejected.bad_time"], c["rejected.unencodable"]) == (1, 1, 1)
+    assert (c["rejected.unknown_record"], c["rejected.bad_time"], c["rejected.malformed"], c["rejected.unencodable"]) == (1, 3, 1, 1)
     assert rig.health.last_error is not None
     with open(path, "rb") as f:
         assert [json.loads(m.data)["line"] for _, _, m in make_reader(f).iter_messages()] == ["$A*00"]
