@@ -118,6 +118,17 @@ def _fields(*names: str, **renamed: str) -> Model:
     return model
 
 
+def _current(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    # Forecast error as a vector (σ per component), so a weak current's drift stays ≥ 0.
+    vn = tr["current_drift"] * np.cos(tr["current_set"])
+    ve = tr["current_drift"] * np.sin(tr["current_set"])
+    sigma = spec.noise.get("velocity", 0.0)
+    if sigma:
+        vn = vn + sigma * rng.standard_normal(vn.shape)
+        ve = ve + sigma * rng.standard_normal(ve.shape)
+    return {"set": wrap_2pi(np.arctan2(ve, vn)), "drift": np.hypot(vn, ve)}
+
+
 def _time(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
     return {}
 
@@ -151,7 +162,7 @@ MODELS: dict[str, Model] = {
     "imu_rate": _fields("r", "roll_rate", "pitch_rate"),
     "attitude": _fields("roll", "pitch", "heave", yaw="heading"),
     "water_speed": _water_speed,
-    "current": _fields(set="current_set", drift="current_drift"),
+    "current": _current,
     "depth": _depth,
     "draft": _draft,
 }

@@ -70,7 +70,7 @@ def dvl(offset: float = 0.3) -> SensorSpec:
 def forecast(sigma: float = 0.2) -> SensorSpec:
     """Current forecasts every 20 minutes (seed 000: σ 0.2 m/s)."""
     return SensorSpec("forecast", "current", FORECAST_HZ, ("nmea:VDR",),
-                      noise={"drift": sigma, "set": 10.0 * DEG}, talker="II", offset_ms=13)
+                      noise={"velocity": sigma}, talker="II", offset_ms=13)
 
 
 def echo_sounder(offset: float) -> SensorSpec:
