@@ -72,12 +72,17 @@ def read_log(
             for fr, t in placed
         ]
 
+    count = health.count
     while True:
         chunk = stream.read(CHUNK)
         for fr in framer.feed(chunk) if chunk else framer.flush():
             placed = push(fr)
             if placed is None:
                 framer.reject(NO_TIME)
+            elif len(placed) == 1 and not stamper.assumed_date:  # the common case, inline
+                count("accepted")
+                tag = fr.tag
+                yield RawRecord(PROTOCOL, source, placed[0][1], fr.sentence, None if tag is None else {"tag": tag})
             elif placed:
                 yield from placed_records(placed)
         if not chunk:
