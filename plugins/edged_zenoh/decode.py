@@ -34,6 +34,12 @@ CURRENT_SUFFIX = "/env/current"
 #: Payload members that are about the message, not values of the kind.
 _ENVELOPE = ("t", "t_src", "source")
 _ANGLES: dict[str, tuple[str, ...]] = {k: tuple(f.name for f in s.fields if f.angle) for k, s in KINDS.items()}
+# validate_measurement lets any string through (for `draft.mark`, the one text field):
+# a JSON sender can put text anywhere, so every other field must be a JSON number.
+_TEXT_UNIT = "name"
+_NUMERIC: dict[str, tuple[str, ...]] = {
+    k: tuple(f.name for f in s.fields if f.unit != _TEXT_UNIT) for k, s in KINDS.items()
+}
 
 
 class Rejected(Exception):
@@ -81,6 +87,10 @@ class ZenohDecoder:
         if t_src is not None and not _number(t_src):
             raise Rejected("bad_time", f"t={t_src!r} is not a finite number of UNIX seconds")
         values = {k: v for k, v in obj.items() if k not in _ENVELOPE}
+        for name in _NUMERIC[kind]:
+            v = values.get(name)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise Rejected("invalid", f"{kind}.{name} is not a number: {v!r}")
         for name in _ANGLES[kind]:
             v = values.get(name)
             if _number(v):

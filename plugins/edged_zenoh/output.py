@@ -98,6 +98,7 @@ class ZenohOutput(OutputPlugin):
         )
         to_zenoh(cfg)
         self.ctx.health.info["key_prefix"] = self.keyspace.prefix
+        self.ctx.health.info["zenoh"] = "connecting"
         self._connector = asyncio.create_task(self._connect(cfg), name=f"{self.ctx.name}.connect")
 
     async def _connect(self, cfg: dict[str, Any]) -> None:

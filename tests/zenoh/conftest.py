@@ -105,11 +105,13 @@ class LineProc:
                 self.send("quit")
             except (BrokenPipeError, OSError):
                 pass
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+            for ask in (lambda: None, self.proc.terminate, self.proc.kill):
+                ask()
+                try:
+                    self.proc.wait(timeout=3)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
 
 
 @pytest.fixture
