@@ -59,15 +59,17 @@ def test_forecast_and_mapped_keys_become_measurements_bad_ones_are_counted(make_
         got = []
         while sum(isinstance(r, Measurement) for r in got) < 3:
             got.append(await asyncio.wait_for(received.get(), SAFETY))
-        raws = [r for r in got if isinstance(r, RawRecord)]
-        meas = [r for r in got if isinstance(r, Measurement)]
-        assert [r.meta for r in raws[:2]] == [{"key": "vessel/v9/env/current", "kind": "current"}] * 2
+        # Samples of different keys run on different channels: order holds within a key.
+        raws = [r for r in got if isinstance(r, RawRecord) and r.meta["kind"] == "current"]
+        currents = [r for r in got if isinstance(r, Measurement) and r.kind == "current"]
+        (depth,) = [r for r in got if isinstance(r, Measurement) and r.kind == "depth"]
+        assert [r.meta for r in raws] == [{"key": "vessel/v9/env/current", "kind": "current"}] * 4
         assert raws[1].data == b"not json at all"  # recorded exactly as received
-        assert meas[0] == Measurement("current", "shore", 1_732_350_100.0, {"set": 0.7, "drift": 0.6}, 1_732_350_000.0)
-        # Samples of different keys run on different channels: order only within a key.
-        by_kind = {m.kind: m for m in meas[1:]}
-        assert by_kind["current"].values == {"set": 0.8, "drift": 0.5}
-        assert (by_kind["depth"].source, by_kind["depth"].values) == ("echo", {"depth": 42.0})
+        assert currents == [
+            Measurement("current", "shore", 1_732_350_100.0, {"set": 0.7, "drift": 0.6}, 1_732_350_000.0),
+            Measurement("current", "shore", 1_732_350_100.0, {"set": 0.8, "drift": 0.5}, 1_732_350_060.0),
+        ]
+        assert (depth.source, depth.values) == ("echo", {"depth": 42.0})
         assert c.health.counters["rejected.not_json"] == 1
         assert c.health.counters["rejected.invalid"] == 1
         assert c.health.counters["received"] == 5
