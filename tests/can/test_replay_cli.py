@@ -1,0 +1,69 @@
+"""`edged replay` of candump logs: the per-PGN and per-frame counts in the summary table."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import pytest
+
+from edged.cli import main
+
+T0 = 1732350000.0
+
+
+def _log(path: Path, lines: list[tuple[float, str, bytes]]) -> Path:
+    path.write_text("".join(f"({t:.6f}) can0 {ident}#{data.hex().upper()}\n" for t, ident, data in lines))
+    return path
+
+
+def _rows(out: str) -> dict[tuple[str, str], int]:
+    """(source, counter) -> count of the summary table (the source is printed once)."""
+    rows: dict[tuple[str, str], int] = {}
+    source = ""
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[2].isdigit():
+            source = parts[0]
+            rows[(source, parts[1])] = int(parts[2])
+        elif len(parts) == 2 and parts[1].isdigit() and line.startswith(" "):
+            rows[(source, parts[0])] = int(parts[1])
+    return rows
+
+
+def test_replay_of_two_candump_files_prints_per_pgn_and_per_frame_counts(tmp_path, build, capsys):
+    heading = build.pgn_127250(1.0)
+    gnss = build.fast_frames(build.pgn_129029(60.0, 24.0), seq=2)
+    gnss_id = f"{build.n2k_id(129029, 20, prio=3):08X}"
+    a = _log(tmp_path / "a.log", [
+        (T0 + 0.00, "310", struct.pack("<HBB", 7000, 0, 1)),
+        (T0 + 0.01, f"{build.n2k_id(127250, 28):08X}", heading),
+        *[(T0 + 0.02 + 0.001 * i, gnss_id, f) for i, f in enumerate(gnss[:4])],
+    ])
+    b = _log(tmp_path / "b.log", [
+        *[(T0 + 0.03 + 0.001 * i, gnss_id, f) for i, f in enumerate(gnss[4:])],
+        (T0 + 0.04, "321", struct.pack("<ihh", 1000, 0, 0)),
+        (T0 + 0.05, "310", struct.pack("<HBB", 7010, 1, 3)),
+        (T0 + 0.06, f"{build.n2k_id(130306, 9):08X}", bytes(8)),
+    ])
+    rc = main(["replay", str(a), str(b), "--no-zenoh", "--no-progress"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    rows = _rows(out)
+    expected = {
+        "frames": 12, "frames.n2k": 9, "frames.dbc": 3, "pgn.127250": 1, "pgn.129029": 1,
+        "unknown_pgn.130306": 1, "dbc.DraftMark_fore_port": 2, "dbc.ImuRate": 1, "dbc.lost": 1,
+        "measurements.draft": 2, "measurements.heading": 1, "measurements.position": 1,
+        "measurements.yaw_rate": 1,
+    }
+    for counter, n in expected.items():
+        assert rows.get(("can0", counter)) == n, (counter, out)
+    assert "can0.DraftMark" in out and "can0.20" in out
+
+
+@pytest.mark.parametrize("name", ["canboat__samples__merrimac-ydwg-2020.raw", "canboat__samples__dirona-actisense-serial.raw"])
+def test_replay_says_clearly_when_a_format_is_not_supported(n2k_data, name, capsys):
+    rc = main(["replay", str(n2k_data / name), "--no-zenoh", "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "format not recognised" in err and name in err
