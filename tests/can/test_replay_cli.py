@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from edged.cli import main
+from edged.registry import Registry
 
 T0 = 1732350000.0
 
@@ -71,8 +72,6 @@ def test_replay_says_clearly_when_a_format_is_not_supported(n2k_data, name, caps
 
 def test_raw_can_recorded_to_mcap_decodes_again_to_the_same_measurements(n2k_data, tmp_path, capsys):
     """The decoder works from the RawRecord alone: MCAP replay equals candump replay."""
-    from edged.registry import Registry
-
     if "mcap" not in {*Registry().names("outputs"), *Registry().names("inputs")}:
         pytest.skip("no MCAP recorder installed")
     log = n2k_data / "canboat__samples__candumpSample3.txt"
