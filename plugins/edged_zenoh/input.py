@@ -11,7 +11,6 @@ the session ends them.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, ClassVar
 

@@ -18,7 +18,6 @@ from edged_zenoh.zconfig import (
     endpoint_in_use,
     free_port_endpoint,
     listen_endpoints,
-    safe_defaults,
     session_config,
     to_zenoh,
 )
