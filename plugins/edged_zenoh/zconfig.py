@@ -149,7 +149,8 @@ class ZenohSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    #: `peer` (default: reachable without any router) or `client` (through a router).
+    #: `peer` (reachable without any router) or `client` (through a router or peer).
+    #: Unset, the plugin's own default applies (the output: peer; the input: client).
     mode: Literal["peer", "client"] = "peer"
     #: Endpoints to listen on; default tcp/127.0.0.1:7447 for a peer, none for a client.
     listen: list[str] | None = None
@@ -185,10 +186,11 @@ class ZenohSettings(BaseModel):
 
     def overlay(self, config_dir: Path) -> dict[str, Any]:
         """The part of the zenoh dict these settings state explicitly."""
-        out: dict[str, Any] = {"mode": self.mode}
+        explicit = self.model_fields_set
+        out: dict[str, Any] = {"mode": self.mode} if "mode" in explicit else {}
         if self.listen is not None:
             out["listen"] = {"endpoints": list(self.listen)}
-        elif self.mode == "client":
+        elif "mode" in explicit and self.mode == "client":
             out["listen"] = {"endpoints": []}
         if self.connect is not None:
             out["connect"] = {"endpoints": list(self.connect)}

@@ -146,3 +146,19 @@ def test_rate_limit_after_a_gap_and_after_time_steps_back():
     assert lim.allow("k", t0 + 10.9, 1.0) is False  # small reordering: dropped
     assert lim.allow("k", t0, 1.0) is True  # a new recording starts earlier: begin again
     assert lim.allow("other", t0, 0.0) is False
+
+
+def test_input_is_by_default_a_client_of_the_local_endpoint(make_ctx):
+    from edged_zenoh.input import ZenohInput, ZenohInputConfig
+
+    def cfg_of(**kw) -> dict:
+        inp = ZenohInput(ZenohInputConfig.model_validate({"type": "zenoh", **kw}), make_ctx("shore", "v").ctx)
+        return session_config(inp.config, config_dir=Path("."), base=inp._base_config())
+
+    default = cfg_of()
+    assert (default["mode"], listen_endpoints(default), default["connect"]["endpoints"]) == (
+        "client", [], ["tcp/127.0.0.1:7447"]
+    )
+    assert cfg_of(connect=["tcp/127.0.0.1:9"])["mode"] == "client"  # unset mode stays the input's own
+    peer = cfg_of(mode="peer")
+    assert (peer["mode"], listen_endpoints(peer)) == ("peer", ["tcp/127.0.0.1:7447"])
