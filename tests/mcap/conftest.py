@@ -65,7 +65,7 @@ def sample_records(seconds: int = 3, seed: int = 1) -> list[Any]:
             out.append(Measurement("velocity_ground", "gnss1", t, {"sog": 5.0 + rnd.random(), "cog": 1.0}))
             for mark in range(6):
                 out.append(RawRecord("can", "can0", t + mark * 1e-3, bytes([rnd.randrange(256) for _ in range(4)]), {"id": 0x310 + mark, "ext": False}))
-                out.append(Measurement("draft", f"can0.DraftMark", t + mark * 1e-3, {"mark": f"m{mark}", "draft": 8.0 + rnd.random(), "status": 0}))
+                out.append(Measurement("draft", "can0.DraftMark", t + mark * 1e-3, {"mark": f"m{mark}", "draft": 8.0 + rnd.random(), "status": 0}))
             out.append(Estimate("stw", "stw", t, {"stw": 5.1, "stw_std": 0.1, "sog": 5.2, "dvl_stw": None, "mode": "full"}))
             out.append(Estimate("manoeuvre", "manoeuvre", t, {"lat": 60.08, "lon": 23.5, "u": 5.0, "v": 0.1, "r": 0.01, "std": {"u": 0.1}}))
             out.append(Estimate("draft", "draft", t, {"marks": {"fore": {"mean": 8.0}, "aft": {"mean": 8.5}}, "mean_draft": 8.25, "trim": 0.5, "list": 0.0}))

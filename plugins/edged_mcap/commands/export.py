@@ -19,7 +19,7 @@ from mcap.exceptions import McapError
 
 from ..flatten import cell, flatten
 from ..reading import ReadReport, iter_messages
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
 
 
 class _NoTopic(LookupError):

@@ -16,7 +16,7 @@ from typing import Any, Callable
 from mcap.exceptions import McapError
 
 from ..plotdata import PlotData, collect, local_xy
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
 
 #: (panel key, y label) of the time-series panels, top to bottom.
 _TIME_PANELS = [
