@@ -95,7 +95,11 @@ class Link:
         finite = self.transport.finite
         while True:
             try:
-                chunk = await (read() if finite else asyncio.wait_for(read(), self.watchdog))
+                # asyncio.timeout, not wait_for: on Python 3.11 wait_for returns the
+                # result and swallows a cancellation that arrives as data does, so a
+                # busy link could never be stopped.
+                async with asyncio.timeout(None if finite else self.watchdog):
+                    chunk = await read()
             except TimeoutError:
                 h.count("watchdog")
                 h.set_state("stale", f"no data for {self.watchdog:g} s")
