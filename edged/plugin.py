@@ -193,8 +193,9 @@ class EstimatorPlugin(Plugin):
 
 class OutputPlugin(Plugin):
     Config: ClassVar[type[PluginConfig]] = OutputConfig
-    #: Route keys this output wants; None = everything.
+    #: Route keys this output wants; None = everything but `exclude_keys`.
     keys: ClassVar[frozenset[str] | None] = None
+    exclude_keys: ClassVar[frozenset[str]] = frozenset()
 
     async def open(self) -> None:
         """Open sessions and files; raising makes the runtime retry with backoff."""

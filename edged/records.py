@@ -284,34 +284,49 @@ class InvalidMeasurement(ValueError):
     """A measurement whose values cannot be true (DESIGN §8)."""
 
 
+def _checks(spec: KindSpec) -> tuple[tuple[str, bool, bool, float | None, float | None], ...]:
+    return tuple((f.name, f.required, f.unit == "name", f.lo, f.hi) for f in spec.fields)
+
+
+#: Per kind: (field, required, is a name, lo, hi), and the set of allowed field names;
+#: precomputed because every decoded measurement of every input passes through here.
+_CHECKS = {name: (_checks(spec), frozenset(spec.field_names)) for name, spec in KINDS.items()}
+
+
 def validate_measurement(kind: str, values: Mapping[str, Any]) -> None:
     """Raise InvalidMeasurement naming the field when `values` cannot be true.
 
     Decoders call this before emitting, so that every input rejects the same things
-    (NaN, out of physical range, missing required fields, unknown fields) the same way.
+    (NaN, out of physical range, missing required fields, unknown fields, text where a
+    number belongs) the same way.
     """
-    spec = KINDS.get(kind)
-    if spec is None:
+    entry = _CHECKS.get(kind)
+    if entry is None:
         raise InvalidMeasurement(f"unknown kind {kind!r}")
-    for f in spec.fields:
-        v = values.get(f.name)
+    checks, names = entry
+    for name, required, is_name, lo, hi in checks:
+        v = values.get(name)
         if v is None:
-            if f.required:
-                raise InvalidMeasurement(f"{kind}.{f.name} missing")
+            if required:
+                raise InvalidMeasurement(f"{kind}.{name} missing")
             continue
-        if isinstance(v, str):
+        if is_name:
+            if not isinstance(v, str) or not v:
+                raise InvalidMeasurement(f"{kind}.{name} must be a non-empty name: {v!r}")
             continue
+        if isinstance(v, (str, bytes)):
+            raise InvalidMeasurement(f"{kind}.{name} not a number: {v!r}")
         try:
             x = float(v)
         except (TypeError, ValueError):
-            raise InvalidMeasurement(f"{kind}.{f.name} not a number: {v!r}") from None
-        if math.isnan(x) or math.isinf(x):
-            raise InvalidMeasurement(f"{kind}.{f.name} is {x}")
-        if (f.lo is not None and x < f.lo) or (f.hi is not None and x > f.hi):
-            raise InvalidMeasurement(f"{kind}.{f.name}={x} outside [{f.lo}, {f.hi}]")
-    extra = set(values) - set(spec.field_names)
-    if extra:
-        raise InvalidMeasurement(f"{kind}: unknown field(s) {sorted(extra)}")
+            raise InvalidMeasurement(f"{kind}.{name} not a number: {v!r}") from None
+        if x != x or x in (math.inf, -math.inf):
+            raise InvalidMeasurement(f"{kind}.{name} is {x}")
+        if (lo is not None and x < lo) or (hi is not None and x > hi):
+            raise InvalidMeasurement(f"{kind}.{name}={x} outside [{lo}, {hi}]")
+    if len(values) > len(names) or not names.issuperset(values):
+        extra = sorted(set(values) - names)
+        raise InvalidMeasurement(f"{kind}: unknown field(s) {extra}")
 
 
 def measurement_to_json(m: Measurement) -> dict[str, Any]:

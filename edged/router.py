@@ -86,6 +86,8 @@ class Subscription:
     name: str
     keys: frozenset[str] | None
     queue: BoundedQueue
+    #: Route keys never delivered even when `keys` is None (e.g. `raw` for a publisher).
+    exclude: frozenset[str] = frozenset()
     health: ComponentHealth | None = None
     sources: frozenset[str] | None = None
     preferred_only: bool = True
@@ -97,7 +99,7 @@ class Subscription:
     late: int = 0
 
     def wants(self, key: str) -> bool:
-        return self.keys is None or key in self.keys
+        return (self.keys is None or key in self.keys) and key not in self.exclude
 
 
 class SourcePriority:
@@ -155,6 +157,7 @@ class Router:
         name: str,
         keys: Iterable[str] | None,
         *,
+        exclude: Iterable[str] = (),
         maxsize: int = 10_000,
         health: ComponentHealth | None = None,
         sources: Iterable[str] | None = None,
@@ -166,6 +169,7 @@ class Router:
             name=name,
             keys=None if keys is None else frozenset(keys),
             queue=BoundedQueue(maxsize),
+            exclude=frozenset(exclude),
             health=health,
             sources=None if sources is None else frozenset(sources),
             preferred_only=preferred_only,

@@ -146,6 +146,7 @@ class OutputHost:
         self.sub = router.subscribe(
             f"output:{name}",
             keys,
+            exclude=plugin.exclude_keys,
             maxsize=int(getattr(plugin.config, "queue_size", 100_000)),
             health=health,
             preferred_only=False,
@@ -339,15 +340,11 @@ class Runtime:
             self._ticker.cancel()
         input_tasks = [t for t in self._tasks if t.get_name().startswith("input:")]
         other = [t for t in self._tasks if t not in input_tasks]
-        for t in input_tasks:
-            t.cancel()
-        await asyncio.gather(*input_tasks, return_exceptions=True)
+        await self._cancel(input_tasks)
         for i in self.inputs:
             i.health.set_state("stopped")
         worker_tasks = [t for t in other if t.get_name().startswith("estimator:")]
-        for t in worker_tasks:
-            t.cancel()
-        await asyncio.gather(*worker_tasks, return_exceptions=True)
+        await self._cancel(worker_tasks)
         for w in self.workers:
             try:
                 w.drain()
@@ -355,9 +352,7 @@ class Runtime:
                 w.health.error(f"drain: {type(exc).__name__}: {exc}")
             w.health.set_state("stopped")
         output_tasks = [t for t in other if t.get_name().startswith("output:")]
-        for t in output_tasks:
-            t.cancel()
-        await asyncio.gather(*output_tasks, return_exceptions=True)
+        await self._cancel(output_tasks)
         timeout = self.config.edged.shutdown_timeout
         for out in self.outputs:
             try:
@@ -366,6 +361,16 @@ class Runtime:
                 out.health.error(f"close: {type(exc).__name__}: {exc}")
             out.health.set_state("stopped")
         self._tasks.clear()
+
+    async def _cancel(self, tasks: list[asyncio.Task[None]]) -> None:
+        """Cancel and wait, bounded: a plugin that ignores cancellation is left behind."""
+        for t in tasks:
+            t.cancel()
+        if not tasks:
+            return
+        _, pending = await asyncio.wait(tasks, timeout=self.config.edged.shutdown_timeout)
+        for t in pending:
+            log.error("event=stop-timeout task=%s reason='did not stop when cancelled'", t.get_name())
 
     def output_backlog(self) -> int:
         """Largest queue of a running output: replay waits on it instead of dropping."""

@@ -62,6 +62,8 @@ _NO_KEY = ""
 class ZenohOutput(OutputPlugin):
     Config: ClassVar[type[ZenohOutputConfig]] = ZenohOutputConfig
     description: ClassVar[str] = "publish estimates, measurements and health over Eclipse Zenoh"
+    #: Raw records are recorded, not published: the router need not queue them here.
+    exclude_keys: ClassVar[frozenset[str]] = frozenset({"raw"})
 
     def __init__(self, config: ZenohOutputConfig, ctx: PluginContext) -> None:
         super().__init__(config, ctx)

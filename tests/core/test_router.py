@@ -112,3 +112,12 @@ async def test_bounded_queue_wakes_consumer_and_batches():
         assert q.put(i)
     assert await asyncio.wait_for(task, 1.0) == [0, 1, 2]
     assert await q.get_batch() == [3, 4]
+
+
+def test_excluded_keys_never_reach_a_catch_all_subscriber():
+    r = Router()
+    pub = r.subscribe("publisher", None, exclude=["raw"], preferred_only=False)
+    m = hdg("gyro", 1.0)
+    r.publish(RawRecord("nmea0183", "gyro", 1.0, b"$HEHDT,1.0,T*00"))
+    r.publish(m)
+    assert pub.queue.drain_nowait() == [m]

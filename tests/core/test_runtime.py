@@ -213,3 +213,24 @@ async def test_reorder_window_restores_time_order(registry):
     await rt.stop()
     assert SumEstimator.cores[0].seen == [1.0, 2.2, 2.5, 3.0, 4.0, 5.0]
     assert rt.workers[0].sub.late == 1
+
+
+async def test_stop_is_bounded_when_a_plugin_ignores_cancellation(registry):
+    from core_dummies import DummyInput
+
+    class Stubborn(DummyInput):
+        async def run(self) -> None:
+            try:
+                await asyncio.Event().wait()
+            except asyncio.CancelledError:
+                pass  # the bug this guards against: a swallowed cancellation
+            await asyncio.Event().wait()  # the event loop's teardown ends this one
+
+    registry.register("inputs", "stubborn", Stubborn)
+    rt = _runtime(
+        registry,
+        {"edged": {"shutdown_timeout": 0.05}, "inputs": {"s": {"type": "stubborn"}}, "outputs": {"rec": {"type": "list"}}},
+    )
+    await rt.start()
+    await asyncio.wait_for(rt.stop(), 5.0)
+    assert ListOutput.instances[0].events[-1] == "close"
