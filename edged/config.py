@@ -19,9 +19,11 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator
+
+from .backoff import Backoff
 
 from .plugin import PluginConfig
 from .records import KINDS
@@ -29,6 +31,37 @@ from .registry import PluginNotFound, Registry
 
 ROLES = ("inputs", "estimators", "outputs")
 _NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
+
+
+def known_kind(name: str) -> str:
+    """A measurement kind of DESIGN §2, or a ValueError listing them."""
+    if name not in KINDS:
+        raise ValueError(f"unknown measurement kind {name!r} (known: {', '.join(KINDS)})")
+    return name
+
+
+#: A configuration value naming a measurement kind (plugins map signals and keys onto one).
+KindName = Annotated[str, AfterValidator(known_kind)]
+
+
+class ReconnectSettings(BaseModel):
+    """Mixin for a plugin that (re)opens a link: the delays between attempts."""
+
+    #: Seconds before the first reconnect attempt; doubled after each failure ...
+    backoff_initial: float = Field(0.5, gt=0)
+    #: ... up to this many seconds.
+    backoff_max: float = Field(30.0, gt=0)
+
+    @field_validator("backoff_max")
+    @classmethod
+    def _backoff_order(cls, v: float, info: ValidationInfo) -> float:
+        initial = info.data.get("backoff_initial")
+        if initial is not None and v < initial:
+            raise ValueError(f"must be >= backoff_initial ({initial})")
+        return v
+
+    def backoff(self) -> Backoff:
+        return Backoff(self.backoff_initial, self.backoff_max)
 
 
 class ConfigError(Exception):
@@ -72,8 +105,7 @@ class RouterConfig(BaseModel):
     @classmethod
     def _kinds(cls, v: dict[str, list[str]]) -> dict[str, list[str]]:
         for kind, sources in v.items():
-            if kind not in KINDS:
-                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
+            known_kind(kind)
             if len(set(sources)) != len(sources):
                 raise ValueError(f"{kind}: a source is listed twice")
         return v

@@ -31,7 +31,7 @@ from .plugin import (
 from .records import HealthRecord
 from .registry import Registry
 from .router import Router, Subscription
-from .supervisor import Backoff, Sleep, supervise
+from .supervisor import RestartPolicy, Sleep, supervise
 
 log = logging.getLogger("edged.runtime")
 
@@ -199,7 +199,7 @@ class Runtime:
         *,
         replay: bool = False,
         options: dict[str, Any] | None = None,
-        backoff: Backoff = Backoff(),
+        restart: RestartPolicy = RestartPolicy(),
         sleep: Sleep = asyncio.sleep,
     ) -> None:
         self.config = config
@@ -208,7 +208,7 @@ class Runtime:
         self.replay = replay
         self.options = dict(options or {})
         self.options.setdefault("config_text", config.text)
-        self.backoff = backoff
+        self.restart = restart
         self.sleep = sleep
         self.health = HealthRegistry(clock)
         self.router = Router(self.health.component("router", "core", "router"))
@@ -280,7 +280,7 @@ class Runtime:
                 await o.close()
 
             self._spawn(
-                supervise(out.run, out.health, self.clock, backoff=self.backoff, sleep=self.sleep, on_restart=_cleanup),
+                supervise(out.run, out.health, self.clock, policy=self.restart, sleep=self.sleep, on_restart=_cleanup),
                 f"output:{out.name}",
             )
         if not self.replay:
@@ -290,12 +290,12 @@ class Runtime:
                     wh.restart()
 
                 self._spawn(
-                    supervise(w.run, w.health, self.clock, backoff=self.backoff, sleep=self.sleep, on_restart=_restart),
+                    supervise(w.run, w.health, self.clock, policy=self.restart, sleep=self.sleep, on_restart=_restart),
                     f"estimator:{w.name}",
                 )
             for i in self.inputs:
                 self._spawn(
-                    supervise(i.run, i.health, self.clock, backoff=self.backoff, sleep=self.sleep),
+                    supervise(i.run, i.health, self.clock, policy=self.restart, sleep=self.sleep),
                     f"input:{i.name}",
                 )
             self._ticker = asyncio.get_running_loop().create_task(self._tick_loop(), name="health")

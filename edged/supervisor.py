@@ -12,6 +12,7 @@ import logging
 from dataclasses import dataclass
 from typing import Awaitable, Callable
 
+from .backoff import Backoff
 from .clock import Clock
 from .health import ComponentHealth
 
@@ -21,16 +22,15 @@ Sleep = Callable[[float], Awaitable[None]]
 
 
 @dataclass(frozen=True)
-class Backoff:
+class RestartPolicy:
     initial: float = 1.0
     factor: float = 2.0
     maximum: float = 60.0
     #: Seconds a run must last for the next failure to start again from `initial`.
     stable_after: float = 60.0
 
-    def delay(self, failures: int) -> float:
-        """Delay before restart number `failures` (1-based)."""
-        return min(self.maximum, self.initial * self.factor ** max(0, failures - 1))
+    def backoff(self) -> Backoff:
+        return Backoff(self.initial, self.maximum, self.factor)
 
 
 async def supervise(
@@ -38,7 +38,7 @@ async def supervise(
     health: ComponentHealth,
     clock: Clock,
     *,
-    backoff: Backoff = Backoff(),
+    policy: RestartPolicy = RestartPolicy(),
     sleep: Sleep = asyncio.sleep,
     on_restart: Callable[[], Awaitable[None]] | None = None,
 ) -> None:
@@ -47,7 +47,7 @@ async def supervise(
     `on_restart` is awaited before each restart (an output closes itself there).
     Cancellation propagates: that is how the runtime stops a plugin.
     """
-    failures = 0
+    backoff = policy.backoff()
     while True:
         started = clock.monotonic()
         health.set_state("running")
@@ -57,10 +57,9 @@ async def supervise(
             health.set_state("stopped")
             raise
         except Exception as exc:  # a plugin's failure must never reach the others
-            if clock.monotonic() - started >= backoff.stable_after:
-                failures = 0
-            failures += 1
-            delay = backoff.delay(failures)
+            if clock.monotonic() - started >= policy.stable_after:
+                backoff.reset()
+            delay = backoff.next_delay()
             health.error(f"{type(exc).__name__}: {exc}")
             log.debug("component=%s traceback", health.name, exc_info=True)
             health.restarts += 1

@@ -27,27 +27,6 @@ class SessionEnded(Exception):
     """Why a bus session ended; the message goes to health."""
 
 
-class Backoff:
-    """Waits `initial`, 2x, 4x ... up to `maximum` between attempts; reset on success.
-
-    The sleep is injected so tests see the delays without waiting them out.
-    """
-
-    def __init__(self, initial: float, maximum: float, sleep: Sleep) -> None:
-        self.initial = initial
-        self.maximum = maximum
-        self._sleep = sleep
-        self._next = initial
-
-    def reset(self) -> None:
-        self._next = self.initial
-
-    async def wait(self) -> None:
-        delay = self._next
-        self._next = min(self._next * 2.0, self.maximum)
-        await self._sleep(delay)
-
-
 class _ErrorListener(can.Listener):
     """Turns an exception of python-can's receive thread into a future the pump awaits."""
 

@@ -15,6 +15,7 @@ import cantools
 from cantools.database.can import Database
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
+from edged.config import KindName, ReconnectSettings
 from edged.plugin import InputConfig
 from edged.records import KINDS
 
@@ -29,7 +30,7 @@ class SignalMap(BaseModel):
     #: DBC message name.
     message: str
     #: Measurement kind (DESIGN §2).
-    kind: str
+    kind: KindName
     #: Kind field -> DBC signal name.
     fields: dict[str, str]
     #: Value of the `mark` field (draft kind): which draft mark this message is.
@@ -38,13 +39,6 @@ class SignalMap(BaseModel):
     source: str = "{bus}.{message}"
     #: Signal counting +1 per frame (8-bit wrap): gaps are counted as lost frames.
     counter: str | None = None
-
-    @field_validator("kind")
-    @classmethod
-    def _kind(cls, v: str) -> str:
-        if v not in KINDS:
-            raise ValueError(f"unknown measurement kind {v!r} (known: {', '.join(KINDS)})")
-        return v
 
     @field_validator("source")
     @classmethod
@@ -56,7 +50,7 @@ class SignalMap(BaseModel):
         return v
 
 
-class CanConfig(InputConfig):
+class CanConfig(InputConfig, ReconnectSettings):
     """One CAN bus: transport, DBC, signal mappings, NMEA 2000 source names, recovery."""
 
     interface: Literal["socketcan", "virtual"] = "socketcan"
@@ -80,9 +74,6 @@ class CanConfig(InputConfig):
     magnetic_variation_deg: float | None = Field(None, ge=-180.0, le=180.0)
     #: Seconds without any frame before the bus is closed and reopened.
     watchdog: float = Field(10.0, gt=0)
-    #: First and longest wait between two attempts to (re)open the bus.
-    backoff_initial: float = Field(0.5, gt=0)
-    backoff_max: float = Field(30.0, gt=0)
 
     @field_validator("dbc")
     @classmethod
@@ -119,14 +110,6 @@ class CanConfig(InputConfig):
     def _iso_names(cls, v: dict[str, str]) -> dict[str, str]:
         for key in v:
             _parse_iso_name(key)
-        return v
-
-    @field_validator("backoff_max")
-    @classmethod
-    def _backoff(cls, v: float, info: ValidationInfo) -> float:
-        lo = info.data.get("backoff_initial")
-        if lo is not None and v < lo:
-            raise ValueError(f"smaller than backoff_initial ({lo})")
         return v
 
     @functools.cached_property

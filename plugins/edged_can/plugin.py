@@ -12,7 +12,7 @@ from edged.plugin import InputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
 
 from . import candump
-from .bus import Backoff, SessionEnded, Sleep, pump
+from .bus import SessionEnded, Sleep, pump
 from .config import CanConfig, default_config
 from .decoder import CanDecoder
 
@@ -38,7 +38,7 @@ class CanInput(InputPlugin):
     async def run(self) -> None:
         cfg: CanConfig = self.config
         health = self.ctx.health
-        backoff = Backoff(cfg.backoff_initial, cfg.backoff_max, self.sleep)
+        backoff = cfg.backoff()
         while True:
             health.set_state("connecting")
             try:
@@ -47,7 +47,7 @@ class CanInput(InputPlugin):
                 health.count("bus.open_failed")
                 health.error(f"cannot open {cfg.interface} bus {cfg.channel!r}: {exc}")
                 health.set_state("reconnecting")
-                await backoff.wait()
+                await self.sleep(backoff.next_delay())
                 continue
             self.sessions += 1
             self._session_frames = 0
@@ -63,7 +63,7 @@ class CanInput(InputPlugin):
                 backoff.reset()
             if health.state != "bus_off":
                 health.set_state("reconnecting")
-            await backoff.wait()
+            await self.sleep(backoff.next_delay())
 
     def _on_frame(self, msg: can.Message) -> None:
         self._session_frames += 1

@@ -11,6 +11,7 @@ from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
+from edged.config import ReconnectSettings
 from edged.plugin import InputConfig
 
 Transport = Literal["serial", "tcp", "udp", "file"]
@@ -25,7 +26,7 @@ REQUIRED_KEYS: dict[str, tuple[str, ...]] = {
 }
 
 
-class Nmea0183Config(InputConfig):
+class Nmea0183Config(InputConfig, ReconnectSettings):
     """Settings of one NMEA 0183 input; unknown keys are errors (InputConfig)."""
 
     #: Declared first: the per-transport validators of later fields read it.
@@ -43,8 +44,6 @@ class Nmea0183Config(InputConfig):
     checksum: ChecksumPolicy = "require"
     #: Seconds a live link may stay open without a byte before it is reopened.
     watchdog: float = Field(10.0, gt=0)
-    backoff_initial: float = Field(0.5, gt=0)
-    backoff_max: float = Field(30.0, gt=0)
     #: Magnetic variation in degrees (east positive), used when no sentence gives one.
     variation: float | None = Field(None, ge=-180.0, le=180.0)
     #: Emit the ground part of VBW as `velocity_ground` (off: GNSS is the better source).
@@ -56,12 +55,4 @@ class Nmea0183Config(InputConfig):
         transport = info.data.get("transport")
         if v is None and transport is not None and info.field_name in REQUIRED_KEYS[transport]:
             raise ValueError(f"required when transport is {transport!r}")
-        return v
-
-    @field_validator("backoff_max")
-    @classmethod
-    def _backoff_order(cls, v: float, info: ValidationInfo) -> float:
-        initial = info.data.get("backoff_initial")
-        if initial is not None and v < initial:
-            raise ValueError(f"must be >= backoff_initial ({initial})")
         return v

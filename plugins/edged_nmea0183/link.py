@@ -11,30 +11,12 @@ from __future__ import annotations
 import asyncio
 from typing import Awaitable, Callable
 
+from edged.backoff import Backoff
 from edged.health import ComponentHealth
 
 from .transports.base import Transport
 
 Sleep = Callable[[float], Awaitable[None]]
-
-
-class Backoff:
-    """Delays before reconnecting: initial, doubled after each failure, capped."""
-
-    __slots__ = ("initial", "maximum", "_next")
-
-    def __init__(self, initial: float, maximum: float) -> None:
-        self.initial = initial
-        self.maximum = maximum
-        self._next = initial
-
-    def next_delay(self) -> float:
-        d = self._next
-        self._next = min(self._next * 2.0, self.maximum)
-        return d
-
-    def reset(self) -> None:
-        self._next = self.initial
 
 
 class Link:

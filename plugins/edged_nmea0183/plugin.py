@@ -12,7 +12,7 @@ from edged.records import RawRecord
 from .config import Nmea0183Config
 from .decoder import DecoderSettings, Nmea0183Decoder
 from .framer import Framer
-from .link import Backoff, Link, Sleep
+from .link import Link, Sleep
 from .replay import PROTOCOL, meta_of, read_log, sniff
 from .transports import make_transport
 
@@ -60,7 +60,7 @@ class Nmea0183Input(InputPlugin):
             self.transport,
             ctx.health,
             watchdog=cfg.watchdog,
-            backoff=Backoff(cfg.backoff_initial, cfg.backoff_max),
+            backoff=cfg.backoff(),
             sleep=self._sleep,
         )
         await link.run(on_data, on_end)

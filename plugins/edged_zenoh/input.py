@@ -19,7 +19,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from edged.health import ComponentHealth
 from edged.plugin import Decoder, InputConfig, InputPlugin, PluginContext
-from edged.records import KINDS, RawRecord
+from edged.config import KindName
+from edged.records import RawRecord
 
 from .decode import ZenohDecoder
 from .keys import KeySpace, valid_chunk
@@ -35,15 +36,8 @@ class KeyMapping(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     key: str
-    kind: str
+    kind: KindName
     source: str
-
-    @field_validator("kind")
-    @classmethod
-    def _kind(cls, v: str) -> str:
-        if v not in KINDS:
-            raise ValueError(f"unknown measurement kind {v!r} (known: {', '.join(KINDS)})")
-        return v
 
     @field_validator("source")
     @classmethod

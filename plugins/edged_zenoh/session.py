@@ -15,6 +15,7 @@ from typing import Any, Awaitable, Callable, Mapping
 
 import zenoh
 
+from edged.backoff import Backoff
 from edged.health import ComponentHealth
 
 from .zconfig import (
@@ -78,7 +79,7 @@ async def open_session(
     """
     cfg = dict(cfg)
     zcfg = to_zenoh(cfg)  # a bad configuration is not retried: it will not heal
-    delay = retry_initial
+    backoff = Backoff(retry_initial, retry_max)
     health.info["zenoh"] = "connecting"
     while True:
         try:
@@ -89,11 +90,11 @@ async def open_session(
                 cfg, zcfg = moved, to_zenoh(moved)
                 health.count("listen_fallback")
                 continue
+            delay = backoff.next_delay()
             health.error(f"zenoh open failed (retrying): {exc}")
             health.info["zenoh_retry_in"] = delay
             health.count("open_retries")
             await sleep(delay)
-            delay = min(retry_max, delay * 2.0)
             continue
         health.info.pop("zenoh_retry_in", None)
         health.info["zenoh"] = "open"

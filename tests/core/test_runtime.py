@@ -6,6 +6,7 @@ import asyncio
 import os
 import signal
 
+import pytest
 from core_dummies import ListOutput, SumEstimator
 
 from edged.clock import ManualClock
@@ -14,7 +15,8 @@ from edged.config import parse_config
 from edged.health import ComponentHealth
 from edged.records import HealthRecord, Measurement
 from edged.runtime import Runtime
-from edged.supervisor import Backoff, supervise
+from edged.backoff import Backoff
+from edged.supervisor import RestartPolicy, supervise
 
 
 class RecordingSleep:
@@ -28,9 +30,18 @@ class RecordingSleep:
         await asyncio.sleep(0)
 
 
-def test_backoff_delays_are_exponential_and_capped():
-    b = Backoff(initial=1.0, factor=2.0, maximum=10.0)
-    assert [b.delay(n) for n in range(1, 7)] == [1.0, 2.0, 4.0, 8.0, 10.0, 10.0]
+def test_backoff_delays_are_exponential_capped_and_reset():
+    b = Backoff(initial=1.0, maximum=10.0, factor=2.0)
+    assert [b.next_delay() for _ in range(6)] == [1.0, 2.0, 4.0, 8.0, 10.0, 10.0]
+    b.reset()
+    assert b.next_delay() == 1.0
+
+
+def test_backoff_rejects_nonsense():
+    with pytest.raises(ValueError):
+        Backoff(initial=0.0)
+    with pytest.raises(ValueError):
+        Backoff(initial=5.0, maximum=1.0)
 
 
 async def test_supervise_restarts_with_backoff_then_succeeds():
@@ -67,7 +78,7 @@ async def test_supervise_resets_backoff_after_a_stable_run():
         if calls <= 4:
             raise RuntimeError("x")
 
-    await supervise(run, h, clock, sleep=sleep, backoff=Backoff(stable_after=60.0))
+    await supervise(run, h, clock, sleep=sleep, policy=RestartPolicy(stable_after=60.0))
     assert sleep.delays == [1.0, 2.0, 1.0, 2.0]
 
 
