@@ -8,6 +8,7 @@ outputs read from them. Nothing else in the code base spells a kind's fields.
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -284,8 +285,16 @@ class InvalidMeasurement(ValueError):
     """A measurement whose values cannot be true (DESIGN §8)."""
 
 
-def _checks(spec: KindSpec) -> tuple[tuple[str, bool, bool, float | None, float | None], ...]:
-    return tuple((f.name, f.required, f.unit == "name", f.lo, f.hi) for f in spec.fields)
+_BIG = sys.float_info.max
+
+
+def _checks(spec: KindSpec) -> tuple[tuple[str, bool, bool, float, float], ...]:
+    # Unbounded fields get ±float max, so that one chained comparison rejects NaN
+    # (every comparison with NaN is false) and ±inf alike.
+    return tuple(
+        (f.name, f.required, f.unit == "name", -_BIG if f.lo is None else f.lo, _BIG if f.hi is None else f.hi)
+        for f in spec.fields
+    )
 
 
 #: Per kind: (field, required, is a name, lo, hi), and the set of allowed field names;
@@ -310,20 +319,27 @@ def validate_measurement(kind: str, values: Mapping[str, Any]) -> None:
             if required:
                 raise InvalidMeasurement(f"{kind}.{name} missing")
             continue
+        tv = type(v)
         if is_name:
-            if not isinstance(v, str) or not v:
-                raise InvalidMeasurement(f"{kind}.{name} must be a non-empty name: {v!r}")
-            continue
-        if isinstance(v, (str, bytes)):
+            if tv is str and v:
+                continue
+            raise InvalidMeasurement(f"{kind}.{name} must be a non-empty name: {v!r}")
+        if tv is float or tv is int:  # the common case, kept cheap
+            if lo <= v <= hi:
+                continue
+            x = v
+        elif isinstance(v, (str, bytes)):
             raise InvalidMeasurement(f"{kind}.{name} not a number: {v!r}")
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise InvalidMeasurement(f"{kind}.{name} not a number: {v!r}") from None
+        else:  # numpy scalars, Decimal, bool ...
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise InvalidMeasurement(f"{kind}.{name} not a number: {v!r}") from None
+            if lo <= x <= hi:
+                continue
         if x != x or x in (math.inf, -math.inf):
             raise InvalidMeasurement(f"{kind}.{name} is {x}")
-        if (lo is not None and x < lo) or (hi is not None and x > hi):
-            raise InvalidMeasurement(f"{kind}.{name}={x} outside [{lo}, {hi}]")
+        raise InvalidMeasurement(f"{kind}.{name}={x} outside [{lo}, {hi}]")
     if len(values) > len(names) or not names.issuperset(values):
         extra = sorted(set(values) - names)
         raise InvalidMeasurement(f"{kind}: unknown field(s) {extra}")
