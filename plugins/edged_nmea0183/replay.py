@@ -21,6 +21,10 @@ from .timeofday import ReplayStamper, parse_date_option
 PROTOCOL = "nmea0183"
 CHUNK = 1 << 16
 _SNIFF_LINES = 40
+#: NMEA 2000 messages in 0183 framing (iKonvert `!PDGY`, `$PCDIN`, Actisense `$MXPGN`):
+#: a log of these is not an NMEA 0183 log, and replaying it as one would only count
+#: every line as unknown. Refusing it lets `edged replay` say the format is unsupported.
+_N2K_ENCAPSULATED = (b"!PDGY,", b"$PCDIN,", b"$MXPGN,")
 
 
 def sniff(head: bytes) -> bool:
@@ -33,8 +37,8 @@ def sniff(head: bytes) -> bool:
         r = frame(line, "allow-missing")
         if r is None or r == "comment":
             continue
-        if isinstance(r, str):
-            bad += 1
+        if isinstance(r, str) or r.sentence.startswith(_N2K_ENCAPSULATED):
+            bad += 1  # NMEA 2000 wrapped in 0183 framing is another format
         else:
             good += 1
         if good + bad >= _SNIFF_LINES:

@@ -100,3 +100,25 @@ def test_numeric_talkers_decode():
     assert health.counters["sentences.HDG"] == 123 and health.counters["sentences.DBT"] == 11
     assert {m.kind for m in ms} >= {"depth"}
     assert health.counters["unknown.MWV"] == 147
+
+
+def test_nmea2000_wrapped_in_0183_framing_is_not_claimed():
+    """iKonvert `!PDGY` / `$PCDIN` logs are NMEA 2000: replay must say it cannot read them."""
+    pdgy = b"".join(b"!PDGY,127250,2,3,255,481.%03d,2C20AAAAAAE=\r\n" % i for i in range(30))
+    pcdin = b"".join(b"$PCDIN,01F119,00000000,0F,2AAF00D1067414FF*59\r\n" for _ in range(30))
+    assert not Nmea0183Input.sniff(pdgy)
+    assert not Nmea0183Input.sniff(pcdin)
+    body = b"HEHDT,123.4,T"
+    hdt = b"$%s*%02X\r\n" % (body, __import__("functools").reduce(lambda a, b: a ^ b, body, 0))
+    mixed = hdt * 30 + pdgy[:200]
+    assert Nmea0183Input.sniff(mixed)
+
+
+def test_shared_ikonvert_log_is_refused_by_replay(capsys):
+    path = LOGS.parent / "n2k" / "canboat__samples__ikonvert.log"
+    if not path.is_file():
+        pytest.skip("shared data absent")
+    from edged.cli import main
+
+    assert main(["replay", str(path), "--no-zenoh", "--no-progress"]) == 2
+    assert "format not recognised" in capsys.readouterr().err
