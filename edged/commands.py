@@ -136,6 +136,13 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
     setup_logging(args.log_level or cfg.edged.log_level, cfg.edged.log_file)
     try:
         rt = Runtime(cfg, registry, LiveClock(), options=opts)
+    except ConfigError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_USAGE
+    except PluginBuildError as exc:
+        log.error("event=startup-failed error=%r", str(exc))
+        return EXIT_FAILURE
+    try:
         return asyncio.run(run_daemon(rt))
     except PluginBuildError as exc:
         log.error("event=startup-failed error=%r", str(exc))
@@ -217,6 +224,9 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
     setup_logging(args.log_level or "warning", None)
     try:
         rt = Runtime(cfg, registry, ReplayClock(), replay=True, options=opts)
+    except ConfigError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_USAGE
     except PluginBuildError as exc:
         print(f"edged replay: {exc}", file=sys.stderr)
         return EXIT_FAILURE

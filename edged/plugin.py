@@ -114,6 +114,14 @@ class Plugin:
         self.config = config
         self.ctx = ctx
 
+    def check(self) -> None:
+        """Raise ValueError when this plugin cannot work as configured.
+
+        Called once before anything starts, for what the schema alone cannot judge:
+        files the configuration or the command line names, their contents. The message
+        becomes a configuration error (exit code 2) naming the plugin's table.
+        """
+
     def status(self) -> dict[str, Any]:
         """Extra plugin-specific status merged into health `info`."""
         return {}

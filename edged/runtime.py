@@ -19,7 +19,7 @@ import logging
 from typing import Any
 
 from .clock import Clock
-from .config import Config
+from .config import Config, ConfigError
 from .health import ComponentHealth, HealthRegistry
 from .plugin import (
     EstimatorCore,
@@ -219,7 +219,10 @@ class Runtime:
         self.outputs: list[OutputHost] = []
         self._tasks: list[asyncio.Task[None]] = []
         self._ticker: asyncio.Task[None] | None = None
+        self._config_errors: list[tuple[str, str]] = []
         self._build()
+        if self._config_errors:
+            raise ConfigError(str(config.path or "<configuration>"), self._config_errors)
 
     # -- construction ---------------------------------------------------------
     def _context(self, name: str, health: ComponentHealth) -> PluginContext:
@@ -246,6 +249,10 @@ class Runtime:
             plugin = cls(cfg, ctx)
         except Exception as exc:
             raise PluginBuildError(f"{role}.{name} (type {cfg.type}): {type(exc).__name__}: {exc}") from exc
+        try:
+            plugin.check()
+        except ValueError as exc:
+            self._config_errors.append((f"{role}.{name}", str(exc)))
         return plugin, health, ctx
 
     def _build(self) -> None:

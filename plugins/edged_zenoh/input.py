@@ -25,7 +25,7 @@ from edged.records import RawRecord
 from .decode import ZenohDecoder
 from .keys import KeySpace, valid_chunk
 from .session import close_session, open_session
-from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults, session_config
+from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults, session_config, to_zenoh
 
 __all__ = ["ZenohInput", "ZenohInputConfig", "KeyMapping"]
 
@@ -97,6 +97,13 @@ class ZenohInput(InputPlugin):
         # The input's own default (client of the local endpoint) unless the user set
         # the mode: then the ordinary peer defaults apply.
         return safe_defaults() if "mode" in self.config.model_fields_set else INPUT_DEFAULTS
+
+    def check(self) -> None:
+        """The zenoh configuration files named here or by --zenoh-config must load."""
+        cfg = session_config(
+            self.config, config_dir=self.ctx.config_dir, cli_file=self.ctx.options.get("zenoh_config"), base=self._base_config()
+        )
+        to_zenoh(cfg)  # raises ZenohConfigError (a ValueError) naming the file
 
     async def run(self) -> None:
         cfg = session_config(

@@ -92,6 +92,13 @@ class ZenohOutput(OutputPlugin):
         self._queries = 0
         self._query_errors = 0
 
+    def check(self) -> None:
+        """The zenoh configuration files named here or by --zenoh-config must load."""
+        cfg = session_config(
+            self.config, config_dir=self.ctx.config_dir, cli_file=self.ctx.options.get("zenoh_config")
+        )
+        to_zenoh(cfg)  # raises ZenohConfigError (a ValueError) naming the file
+
     # -- lifecycle ---------------------------------------------------------------
     async def open(self) -> None:
         """Check the configuration now; connect in the background, never failing."""

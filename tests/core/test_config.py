@@ -109,3 +109,9 @@ def test_run_with_bad_config_exits_2_before_starting(write_config, capsys):
     bad = write_config("[edged]\nnope = 1\n")
     assert main(["run", "-c", str(bad)]) == 2
     assert "edged.nope: unknown key" in capsys.readouterr().err
+
+
+def test_plugin_check_failure_is_a_configuration_error(write_config, registry, capsys):
+    cfg = write_config('[outputs.rec]\ntype = "list"\nmissing_file = "/nope.json5"\n')
+    assert dispatch(build_parser().parse_args(["run", "-c", str(cfg)]), registry) == 2
+    assert f"{cfg}: outputs.rec: /nope.json5: no such file" in capsys.readouterr().err

@@ -136,6 +136,7 @@ class ChainEstimator(EstimatorPlugin):
 
 class ListOutputConfig(OutputConfig):
     fail_writes: int = 0
+    missing_file: str | None = None
 
 
 class ListOutput(OutputPlugin):
@@ -150,6 +151,10 @@ class ListOutput(OutputPlugin):
         self.events: list[str] = []
         self.got_first = asyncio.Event()
         ListOutput.instances.append(self)
+
+    def check(self) -> None:
+        if self.config.missing_file:
+            raise ValueError(f"{self.config.missing_file}: no such file")
 
     async def open(self) -> None:
         self.events.append("open")

@@ -162,3 +162,15 @@ def test_input_is_by_default_a_client_of_the_local_endpoint(make_ctx):
     assert cfg_of(connect=["tcp/127.0.0.1:9"])["mode"] == "client"  # unset mode stays the input's own
     peer = cfg_of(mode="peer")
     assert (peer["mode"], listen_endpoints(peer)) == ("peer", ["tcp/127.0.0.1:7447"])
+
+
+def test_run_with_a_bad_zenoh_config_file_exits_2_naming_it(tmp_path, capsys):
+    from edged.cli import main
+
+    bad = tmp_path / "bad.json5"
+    bad.write_text("{ mode: 'peer', listen: ")
+    cfg = tmp_path / "edged.toml"
+    cfg.write_text('[outputs.zenoh]\ntype = "zenoh"\n')
+    assert main(["run", "-c", str(cfg), "--zenoh-config", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "outputs.zenoh" in err and "bad.json5" in err and "json5 syntax" in err
