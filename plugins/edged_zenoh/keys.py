@@ -13,6 +13,8 @@ import re
 from dataclasses import dataclass
 from typing import Any, Callable
 
+import orjson
+
 from edged.records import Estimate, HealthRecord, Measurement, measurement_to_json
 
 __all__ = ["KeySpace", "PAYLOADS", "payload_of", "encode", "valid_chunk"]
@@ -97,17 +99,40 @@ def _default(obj: Any) -> Any:
 
 
 # Built once: json.dumps with options makes a new encoder per call (a third of the cost).
+# The standard library is the authority on what is JSON, and the fallback for the little
+# orjson refuses (integers beyond 64 bits, strings with lone surrogates).
 _STRICT = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_default)
 _LAX = json.JSONEncoder(default=_default)
+_ORJSON_OPTIONS = orjson.OPT_NON_STR_KEYS
+
+
+def _has_nonfinite(obj: Any) -> bool:
+    if isinstance(obj, float):
+        return not math.isfinite(obj)
+    if isinstance(obj, dict):
+        return any(_has_nonfinite(v) for v in obj.values())
+    if isinstance(obj, (list, tuple)):
+        return any(_has_nonfinite(v) for v in obj)
+    tolist = getattr(obj, "tolist", None)  # numpy values: as they will be sent
+    return callable(tolist) and _has_nonfinite(tolist())
+
+
+def _encode_strict(obj: dict[str, Any]) -> tuple[bytes, bool]:
+    try:
+        return _STRICT.encode(obj).encode(), False
+    except ValueError:
+        return _STRICT.encode(_finite(json.loads(_LAX.encode(obj)))).encode(), True
 
 
 def encode(obj: dict[str, Any]) -> tuple[bytes, bool]:
     """Compact JSON bytes of `obj`, and whether non-finite numbers had to become null.
 
-    The fast path is a single `json.dumps`; only an object carrying NaN or infinity
-    pays for the walk that replaces them. Raises TypeError when a value has no JSON form.
+    orjson costs a tenth of `json.dumps` (every published record passes here) and
+    already writes NaN and infinity as null: only a payload with a null in it is
+    searched for them. Raises TypeError when a value has no JSON form.
     """
     try:
-        return _STRICT.encode(obj).encode(), False
-    except ValueError:
-        return _STRICT.encode(_finite(json.loads(_LAX.encode(obj)))).encode(), True
+        data = orjson.dumps(obj, default=_default, option=_ORJSON_OPTIONS)
+    except TypeError:  # orjson.JSONEncodeError: let the standard library decide
+        return _encode_strict(obj)
+    return data, b"null" in data and _has_nonfinite(obj)
