@@ -14,6 +14,11 @@ from .clock import Clock
 
 log = logging.getLogger("edged.health")
 
+#: States in which a component is doing its job. Plugins name their own states
+#: (`connected`, `recording`, `stale`, `disk_full` ...); any state not listed here is
+#: reported with `ok: false`, so a dashboard needs no list of every plugin's words.
+OK_STATES = frozenset({"running", "connected", "recording", "finished"})
+
 
 class ComponentHealth:
     """State and counters of one component; see DESIGN §6 `health`."""
@@ -79,6 +84,7 @@ class ComponentHealth:
             "role": self.role,
             "type": self.type,
             "state": self.state,
+            "ok": self.state in OK_STATES,
             "counters": dict(self.counters),
             "rates": rates,
             "last_error": self.last_error,
@@ -105,6 +111,10 @@ class HealthRegistry:
 
     def snapshot(self) -> dict[str, Any]:
         out: dict[str, Any] = {"t": self.clock.now()}
+        ok = True
         for h in self.components.values():
-            out.setdefault(h.role + "s", {})[h.name] = h.snapshot()
+            snap = h.snapshot()
+            ok = ok and snap["ok"]
+            out.setdefault(h.role + "s", {})[h.name] = snap
+        out["ok"] = ok
         return out

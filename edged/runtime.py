@@ -281,6 +281,7 @@ class Runtime:
         self._tasks.append(asyncio.get_running_loop().create_task(coro, name=name))
 
     async def start(self) -> None:
+        self.router.health.set_state("running")  # type: ignore[union-attr]
         for out in self.outputs:
 
             async def _cleanup(o: OutputHost = out) -> None:

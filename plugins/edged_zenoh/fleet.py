@@ -70,15 +70,14 @@ _TAKERS: dict[str, Callable[[VesselRow, Mapping[str, Any]], None]] = {
 
 
 def _components_not_running(health: Mapping[str, Any]) -> list[str]:
-    """`name:state` of every component in a health snapshot that is not running."""
+    """`name:state` of every component the health snapshot says is not ok."""
     out = []
     for group in health.values():
         if not isinstance(group, Mapping):
             continue
         for name, comp in group.items():
-            state = comp.get("state") if isinstance(comp, Mapping) else None
-            if isinstance(state, str) and state not in ("running", "finished"):
-                out.append(f"{name}:{state}")
+            if isinstance(comp, Mapping) and comp.get("ok") is False:
+                out.append(f"{name}:{comp.get('state')}")
     return sorted(out)
 
 

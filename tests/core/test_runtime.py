@@ -245,3 +245,16 @@ async def test_stop_is_bounded_when_a_plugin_ignores_cancellation(registry):
     await rt.start()
     await asyncio.wait_for(rt.stop(), 5.0)
     assert ListOutput.instances[0].events[-1] == "close"
+
+
+def test_health_marks_each_component_and_the_whole_ok_or_not():
+    from edged.health import HealthRegistry
+
+    reg = HealthRegistry(ManualClock())
+    reg.component("gnss", "input").set_state("connected")
+    reg.component("rec", "output").set_state("recording")
+    snap = reg.snapshot()
+    assert snap["ok"] is True and snap["inputs"]["gnss"]["ok"] is True
+    reg.component("rec", "output").set_state("disk_full")
+    snap = reg.snapshot()
+    assert snap["ok"] is False and snap["outputs"]["rec"]["ok"] is False

@@ -14,7 +14,11 @@ from edged_zenoh.fleet import FleetTable
 from edged_zenoh.output import ZenohOutput, ZenohOutputConfig
 
 T0 = 1_732_350_000.0
-HEALTHY = {"t": T0, "inputs": {"gnss1": {"state": "running"}}, "outputs": {"zenoh": {"state": "running"}}}
+HEALTHY = {
+    "t": T0,
+    "inputs": {"gnss1": {"state": "connected", "ok": True}},
+    "outputs": {"zenoh": {"state": "running", "ok": True}},
+}
 
 
 def _j(obj) -> bytes:
@@ -31,7 +35,7 @@ def test_table_shows_stw_heading_position_and_state():
     t.update("vessel/aurora/est/stw", _j({"t": T0, "stw": 6.25}), now=100.0)
     t.update("vessel/aurora/est/manoeuvre", _j({"t": T0, "heading": math.pi / 2, "lat": 60.1, "lon": 24.95}), 100.0)
     t.update("vessel/aurora/health", _j(HEALTHY), 100.0)
-    t.update("vessel/borealis/health", _j({"t": T0, "inputs": {"can0": {"state": "backoff"}}}), 101.0)
+    t.update("vessel/borealis/health", _j({"t": T0, "inputs": {"can0": {"state": "backoff", "ok": False}}}), 101.0)
     text = t.render(now=101.5)
     assert text.splitlines()[0].split()[:2] == ["VESSEL", "LAST"]
     assert _row(text, "aurora").split() == ["aurora", "1.5", "s", "6.25", "90.0", "60.10000", "24.95000", "ok"]
