@@ -85,16 +85,25 @@ _ORJSON_OPTIONS = orjson.OPT_NON_STR_KEYS
 
 
 def _has_nonfinite(o: Any) -> bool:
-    if o.__class__ is float:
-        return not math.isfinite(o)
+    """True when a NaN or infinity is somewhere in `o` (payloads are small and flat:
+    one loop over the values, a call only for nested containers)."""
     if isinstance(o, dict):
-        return any(_has_nonfinite(v) for v in o.values())
-    if isinstance(o, (list, tuple)):
-        return any(_has_nonfinite(v) for v in o)
-    if isinstance(o, float):
+        values: Any = o.values()
+    elif isinstance(o, (list, tuple)):
+        values = o
+    elif isinstance(o, float):
         return not math.isfinite(o)
-    tolist = getattr(o, "tolist", None)  # numpy values: as they will be written
-    return callable(tolist) and _has_nonfinite(tolist())
+    else:
+        tolist = getattr(o, "tolist", None)  # numpy values: as they will be written
+        return callable(tolist) and _has_nonfinite(tolist())
+    for v in values:
+        c = v.__class__
+        if c is float:
+            if v - v != 0.0:  # NaN - NaN and inf - inf are NaN, which equals nothing
+                return True
+        elif c is not str and c is not int and c is not bool and v is not None and _has_nonfinite(v):
+            return True
+    return False
 
 
 def _dumps_strict(payload: dict[str, Any]) -> tuple[bytes, bool]:

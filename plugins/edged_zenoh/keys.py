@@ -107,14 +107,25 @@ _ORJSON_OPTIONS = orjson.OPT_NON_STR_KEYS
 
 
 def _has_nonfinite(obj: Any) -> bool:
-    if isinstance(obj, float):
-        return not math.isfinite(obj)
+    """True when a NaN or infinity is somewhere in `obj` (payloads are small and flat:
+    one loop over the values, a call only for nested containers)."""
     if isinstance(obj, dict):
-        return any(_has_nonfinite(v) for v in obj.values())
-    if isinstance(obj, (list, tuple)):
-        return any(_has_nonfinite(v) for v in obj)
-    tolist = getattr(obj, "tolist", None)  # numpy values: as they will be sent
-    return callable(tolist) and _has_nonfinite(tolist())
+        values: Any = obj.values()
+    elif isinstance(obj, (list, tuple)):
+        values = obj
+    elif isinstance(obj, float):
+        return not math.isfinite(obj)
+    else:
+        tolist = getattr(obj, "tolist", None)  # numpy values: as they will be written
+        return callable(tolist) and _has_nonfinite(tolist())
+    for v in values:
+        c = v.__class__
+        if c is float:
+            if v - v != 0.0:  # NaN - NaN and inf - inf are NaN, which equals nothing
+                return True
+        elif c is not str and c is not int and c is not bool and v is not None and _has_nonfinite(v):
+            return True
+    return False
 
 
 def _encode_strict(obj: dict[str, Any]) -> tuple[bytes, bool]:
