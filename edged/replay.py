@@ -175,6 +175,7 @@ class Replayer:
         next_tick: float | None = None
         loop = asyncio.get_running_loop()
         wall0 = loop.time()
+        next_flush = wall0 + interval
         t0: float | None = None
         n = 0
         try:
@@ -200,7 +201,12 @@ class Replayer:
                         publish(m)
                 n += 1
                 if next_tick is not None and clock.now() >= next_tick:
-                    rt.tick()
+                    # Health in data time (the same log gives the same health records);
+                    # the outputs' flush in wall time (fsync per second, not per record).
+                    wall = loop.time()
+                    rt.tick(flush=wall >= next_flush)
+                    if wall >= next_flush:
+                        next_flush = wall + interval
                     next_tick = clock.now() + interval
                 if n % BATCH == 0:
                     await self._yield()
