@@ -9,6 +9,7 @@ from typing import BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
+from .fastmessages import FastMessages
 from .schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
 
 __all__ = ["McapFile", "COMPRESSION"]
@@ -45,6 +46,8 @@ class McapFile:
         self._channels: dict[str, int] = {}
         self._writer.start(profile="", library=library)
         self._writer.add_metadata("edged", metadata)
+        fast = FastMessages.attach(self._writer)
+        self._add_message = fast.add if fast is not None else self._writer.add_message
 
     def channel(self, topic: str, schema: str) -> int:
         """The channel id of `topic`, registering topic and schema on first use."""
@@ -62,7 +65,7 @@ class McapFile:
         cid = self._channels.get(topic)
         if cid is None:
             cid = self.channel(topic, schema)
-        self._writer.add_message(cid, log_ns, data, pub_ns)
+        self._add_message(cid, log_ns, data, pub_ns)
         self.messages += 1
 
     @property
