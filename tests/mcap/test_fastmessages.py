@@ -35,6 +35,7 @@ def test_same_bytes_as_add_message_across_chunks_flushes_and_out_of_order_times(
         # Mostly increasing, sometimes a little older (merged inputs are not perfectly ordered).
         log = t0 + i * 10_000_000 - (rnd.randrange(50_000_000) if i % 17 == 0 else 0)
         messages.append((rnd.randrange(3), log, rnd.randbytes(rnd.randrange(1, 300)), t0 + i))
+    messages[10] = (1, t0 - 1_000_000_000, b"{}", t0)  # older than the file's first message
     assert FastMessages.attach(Writer(io.BytesIO())) is not None, (
         "the installed mcap Writer's internals changed: update edged_mcap.fastmessages"
     )
