@@ -97,7 +97,8 @@ def main(args: argparse.Namespace, registry: Registry | None = None, out: TextIO
     except ImportError as exc:
         print(f"edged demo: the simulator is not installed ({exc})", file=sys.stderr)
         return 1
-    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    clock = LiveClock()
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime(clock.now()))
     record_dir = Path(args.record_dir or f"edged-demo-{stamp}").resolve()
     record_dir.mkdir(parents=True, exist_ok=True)
     udp_port = free_udp_port()
@@ -114,7 +115,6 @@ def main(args: argparse.Namespace, registry: Registry | None = None, out: TextIO
     options: dict[str, Any] = {}
     if args.zenoh_config:
         options["zenoh_config"] = str(Path(args.zenoh_config).resolve())
-    clock = LiveClock()
     rt = Runtime(cfg, registry, clock, options=options)
     estimators = ", ".join(w.name for w in rt.workers) or "none installed yet: inputs -> router -> outputs only"
     print(
