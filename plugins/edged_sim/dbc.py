@@ -2,8 +2,8 @@
 
 Draft marks at 0x310–0x315 with a per-mark counter (+1 per sample, so a gap in the
 counter is a lost frame), IMU accelerations, rates and attitude at 0x320–0x322.
-`DBC_TEXT` is the same table as a DBC file, for tests that decode with cantools when
-`deploy/edged-sensors.dbc` (owned by the CAN input) is not there.
+Tests decode these frames with cantools and the reference DBC the CAN input ships, so
+the encoder is checked against the one DBC.
 """
 
 from __future__ import annotations
@@ -80,31 +80,3 @@ FRAMES: dict[str, DbcFrame] = {
         DbcFrame("ImuAttitude", 0x322, imu_attitude),
     )
 }
-
-
-def _draft_message(fid: int, name: str) -> str:
-    return (
-        f"BO_ {fid} DraftMark_{name}: 4 Vector__XXX\n"
-        f' SG_ draft : 0|16@1+ (0.001,0) [0|65.534] "m" Vector__XXX\n'
-        f' SG_ status : 16|8@1+ (1,0) [0|2] "" Vector__XXX\n'
-        f' SG_ counter : 24|8@1+ (1,0) [0|255] "" Vector__XXX\n'
-    )
-
-
-#: DESIGN §5 as a DBC file (a test fixture; the CAN input owns deploy/edged-sensors.dbc).
-DBC_TEXT = (
-    'VERSION ""\n\nNS_ :\n\nBS_:\n\nBU_:\n\n'
-    + "\n".join(_draft_message(fid, name) for name, fid in DRAFT_IDS.items())
-    + "\nBO_ 800 ImuAccel: 6 Vector__XXX\n"
-    ' SG_ ax : 0|16@1- (0.001,0) [-32.768|32.767] "m/s2" Vector__XXX\n'
-    ' SG_ ay : 16|16@1- (0.001,0) [-32.768|32.767] "m/s2" Vector__XXX\n'
-    ' SG_ az : 32|16@1- (0.001,0) [-32.768|32.767] "m/s2" Vector__XXX\n'
-    "\nBO_ 801 ImuRate: 8 Vector__XXX\n"
-    ' SG_ yaw_rate : 0|32@1- (1e-06,0) [-2147.483648|2147.483647] "rad/s" Vector__XXX\n'
-    ' SG_ roll_rate : 32|16@1- (0.0001,0) [-3.2768|3.2767] "rad/s" Vector__XXX\n'
-    ' SG_ pitch_rate : 48|16@1- (0.0001,0) [-3.2768|3.2767] "rad/s" Vector__XXX\n'
-    "\nBO_ 802 ImuAttitude: 6 Vector__XXX\n"
-    ' SG_ roll : 0|16@1- (0.0001,0) [-3.2768|3.2767] "rad" Vector__XXX\n'
-    ' SG_ pitch : 16|16@1- (0.0001,0) [-3.2768|3.2767] "rad" Vector__XXX\n'
-    ' SG_ heave : 32|16@1- (0.001,0) [-32.768|32.767] "m" Vector__XXX\n'
-)
