@@ -11,9 +11,11 @@ could give a time, the others being `rejected.no_time`), so that
 
 from __future__ import annotations
 
+from itertools import repeat
+
 from edged.health import ComponentHealth
 
-from .framing import COMMENT, Framed, LineSplitter, frame
+from .framing import COMMENT, Framed, LineSplitter, frame, line_xors
 from .reporting import ProblemReporter
 
 
@@ -49,8 +51,10 @@ class Framer:
         policy = self._policy
         n_lines = 0
         n_comments = 0
-        for line in lines:
-            r = frame(line, policy)
+        # Checksums for the whole chunk at once (a live port's few lines: one by one).
+        xors = line_xors(lines) if policy != "ignore" else None
+        for line, line_xor in zip(lines, repeat(None) if xors is None else xors):
+            r = frame(line, policy, line_xor)
             if r is None:
                 continue
             if type(r) is str:

@@ -14,6 +14,8 @@ from functools import reduce
 from operator import xor
 from typing import NamedTuple
 
+import numpy as np
+
 #: NMEA 0183 allows 82 characters; TAG blocks and proprietary sentences are longer, so
 #: the limit is generous but bounded (a stream without line ends must not grow forever).
 MAX_LINE = 1024
@@ -35,6 +37,11 @@ COMMENT = "comment"
 REJECT_REASONS = (TOO_LONG, NON_ASCII, NO_START, NO_CHECKSUM, CHECKSUM, BAD_TAG, TAG_CHECKSUM, BAD_TIMESTAMP, NO_TIME)
 
 _HEX = frozenset(b"0123456789ABCDEFabcdef")
+#: `hh` -> its value, for every pair of hex digits: one lookup both checks and converts.
+_HEX_PAIRS = {bytes((a, b)): int(bytes((a, b)), 16) for a in _HEX for b in _HEX}
+#: Below this many lines numpy's fixed cost per call exceeds what it saves (measured:
+#: even at 8 lines; at 1000 lines a chunk costs 0.15 us per line instead of 2 us).
+_BATCH_MIN = 8
 _DIGITS = frozenset(b"0123456789")
 _START = frozenset(b"$!")
 _EOL = frozenset(b"\r\n")
@@ -52,6 +59,24 @@ class Framed(NamedTuple):
 def nmea_checksum(body: bytes) -> int:
     """XOR of the bytes between `$`/`!` and `*` (iterating bytes yields ints)."""
     return reduce(xor, body, 0)
+
+
+def line_xors(lines: list[bytes]) -> list[int] | None:
+    """XOR of all bytes of each line, for a chunk of lines at once (None: too few).
+
+    The checksum is the one per-byte cost of framing; a Python-level XOR over each
+    sentence's bytes was a third of the input stage's budget. `frame` turns a line's
+    XOR into its checksum by taking out the bytes outside the checksummed span (XOR is
+    its own inverse). An empty line's value is meaningless (numpy's `reduceat` gives
+    the next byte there), which does not matter: a blank line has no checksum.
+    """
+    if len(lines) < _BATCH_MIN:
+        return None
+    # The trailing 0 gives an empty last line a valid start index without changing a XOR.
+    data = np.frombuffer(b"".join(lines) + b"\0", np.uint8)
+    starts = np.zeros(len(lines), np.intp)
+    np.cumsum(np.fromiter(map(len, lines), np.intp, len(lines) - 1), out=starts[1:])
+    return np.bitwise_xor.reduceat(data, starts).tolist()
 
 
 def _checksum_ok(text: bytes, policy: str, missing: str) -> str | None:
@@ -104,13 +129,16 @@ def _split_tag(line: bytes, policy: str) -> tuple[str, float | None, bytes] | st
     return tag, t, line[end + 1 :]
 
 
-def frame(line: bytes, policy: str = "require") -> Framed | str | None:
+def frame(line: bytes, policy: str = "require", line_xor: int | None = None) -> Framed | str | None:
     """Judge one line (without its line end).
 
     Returns a Framed sentence, a reason string (`COMMENT` or one of REJECT_REASONS),
     or None for a blank line (line ends of CR LF pairs and padding are not data).
+    `line_xor` is the XOR of all of `line`'s bytes when the caller computed it for a
+    whole chunk (`line_xors`); without it the checksum is computed here.
     """
-    if len(line) > MAX_LINE:
+    n = len(line)
+    if n > MAX_LINE:
         return TOO_LONG
     line = line.strip()
     if not line:
@@ -139,10 +167,14 @@ def frame(line: bytes, policy: str = "require") -> Framed | str | None:
     if len(line) < 2 or line[0] not in _START:
         return NO_START
     # The common case inline (valid `*hh` at the end): this runs for every sentence.
-    if policy != "ignore" and len(line) > 4 and line[-3] == 0x2A and line[-2] in _HEX and line[-1] in _HEX:
-        if reduce(xor, line[1:-3], 0) != int(line[-2:], 16):
-            return CHECKSUM
-        return Framed(line, tag, t_log)
+    if policy != "ignore" and len(line) > 4 and line[-3] == 0x2A:
+        expected = _HEX_PAIRS.get(line[-2:])
+        if expected is not None:
+            if line_xor is not None and len(line) == n:  # nothing stripped or split off
+                checksum = line_xor ^ line[0] ^ 0x2A ^ line[-2] ^ line[-1]
+            else:
+                checksum = nmea_checksum(line[1:-3])
+            return Framed(line, tag, t_log) if checksum == expected else CHECKSUM
     bad = _checksum_ok(line[1:], policy, NO_CHECKSUM)
     if bad is not None:
         return bad

@@ -15,6 +15,7 @@ from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord, validate_measurement
 from edged_nmea0183.framer import Framer
+from edged_nmea0183.framing import Framed, LineSplitter, frame
 from edged_nmea0183.handlers import HANDLERS
 from edged_nmea0183.plugin import Nmea0183Input
 
@@ -88,3 +89,14 @@ def test_decoder_never_raises_on_any_record(data, t):
     for m in dec.decode(RawRecord("nmea0183", "f", t, data)):
         validate_measurement(m.kind, m.values)
     assert "decode_errors" not in health.counters
+
+
+@FUZZ
+@given(items=st.lists(st.one_of(st.binary(max_size=80), sentences()), min_size=8, max_size=40),
+       policy=st.sampled_from(["require", "allow-missing"]))
+def test_chunk_checksums_judge_as_line_by_line(items, policy):
+    """A chunk's checksums are computed at once (numpy); the verdicts must be those of
+    `frame` on each line alone, whatever the whitespace, TAG blocks or prefixes."""
+    data = b"\n".join(items) + b"\n"
+    alone = [r for r in map(lambda line: frame(line, policy), LineSplitter().feed(data)) if isinstance(r, Framed)]
+    assert Framer(_health(), policy).feed(data) == alone
