@@ -40,33 +40,34 @@ class McapFile:
             # flush and close: buffer it here so that flush() really flushes.
             stream = io.BufferedWriter(stream)
         self.stream = stream
-        self.messages = 0
         self._writer = Writer(stream, chunk_size=chunk_size, compression=COMPRESSION[compression])
         self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
+        #: topic -> channel id of the channels registered so far (read by the recorder's
+        #: loop directly: one dictionary look-up per message instead of a call).
+        self.channels: dict[str, int] = {}
         self._writer.start(profile="", library=library)
         self._writer.add_metadata("edged", metadata)
         fast = FastMessages.attach(self._writer)
-        self._add_message = fast.add if fast is not None else self._writer.add_message
+        #: add_message(channel_id, log_ns, data, pub_ns): the fast path when it applies.
+        self.add_message = fast.add if fast is not None else self._writer.add_message
 
     def channel(self, topic: str, schema: str) -> int:
         """The channel id of `topic`, registering topic and schema on first use."""
-        cid = self._channels.get(topic)
+        cid = self.channels.get(topic)
         if cid is None:
             sid = self._schemas.get(schema)
             if sid is None:
                 sid = self._writer.register_schema(schema, SCHEMA_ENCODING, schema_bytes(schema))
                 self._schemas[schema] = sid
             cid = self._writer.register_channel(topic, MESSAGE_ENCODING, sid)
-            self._channels[topic] = cid
+            self.channels[topic] = cid
         return cid
 
     def add(self, topic: str, schema: str, data: bytes, log_ns: int, pub_ns: int) -> None:
-        cid = self._channels.get(topic)
+        cid = self.channels.get(topic)
         if cid is None:
             cid = self.channel(topic, schema)
-        self._add_message(cid, log_ns, data, pub_ns)
-        self.messages += 1
+        self.add_message(cid, log_ns, data, pub_ns)
 
     @property
     def size(self) -> int:

@@ -79,12 +79,20 @@ class McapRecorder(OutputPlugin):
         self._start_file()
 
     def write(self, batch: list[Any]) -> None:
+        """Record `batch`; every record of a replay passes here, so the loop keeps to
+        plain local names (the file's channel table, its message adder) and converts a
+        time to nanoseconds once for the run of records that share it (the sentences
+        of one GNSS epoch, a raw record and its measurements)."""
         f = self._file
         health = self.ctx.health
         if f is None:
             health.count(f"dropped.{self._stopped}", len(batch))
             return
         pub = to_ns(self.ctx.clock.now())
+        channels = f.channels
+        add = f.add_message
+        last_t: Any = None
+        log = 0
         n = 0
         for i, rec in enumerate(batch):
             try:
@@ -98,22 +106,27 @@ class McapRecorder(OutputPlugin):
                 health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
                 continue
             t = getattr(rec, "t", None)
-            if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
-                health.count("rejected.bad_time")
-                health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
-                continue
-            log = to_ns(t)
+            if t != last_t or t.__class__ is not last_t.__class__:
+                if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
+                    health.count("rejected.bad_time")
+                    health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
+                    continue
+                log = to_ns(t)
+                last_t = t
             try:
-                for o in outs:
+                for topic, schema, payload in outs:
                     try:
-                        data, cleaned = dumps(o.payload)
+                        data, cleaned = dumps(payload)
                     except (TypeError, ValueError) as exc:
                         health.count("rejected.unencodable")
-                        health.error(f"{o.topic}: not JSON: {exc}")
+                        health.error(f"{topic}: not JSON: {exc}")
                         continue
                     if cleaned:
                         health.count("nonfinite_as_null")
-                    f.add(o.topic, o.schema, data, log, pub)
+                    cid = channels.get(topic)
+                    if cid is None:
+                        cid = f.channel(topic, schema)
+                    add(cid, log, data, pub)
                     n += 1
             except OSError as exc:
                 health.count("recorded", n)
