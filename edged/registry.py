@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
-from typing import Any
+from importlib.metadata import EntryPoint, entry_points
+from typing import Any, Iterator
 
 log = logging.getLogger("edged.registry")
 
@@ -28,16 +28,33 @@ class PluginNotFound(LookupError):
 
 @dataclass
 class Registry:
-    """Plugin classes by role and type name; loaded lazily from entry points."""
+    """Plugin classes by role and type name; loaded lazily from entry points.
+
+    The entry points of a group are looked up once per registry: each look-up scans
+    the metadata of every installed distribution (about 10 ms), and a command asks
+    for several plugins. A registry lives for one command, so a package installed
+    while it runs is seen by the next command.
+    """
 
     extra: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: False: only what was `register`ed (tests that must not see installed plugins).
     use_entry_points: bool = True
     _cache: dict[tuple[str, str], Any] = field(default_factory=dict)
+    _entry_points: dict[str, dict[str, EntryPoint]] = field(default_factory=dict)
+
+    def _group(self, role: str) -> dict[str, EntryPoint]:
+        """name -> entry point of `role` (the first of a name, as a look-up by name gives)."""
+        eps = self._entry_points.get(role)
+        if eps is None:
+            eps = {}
+            if self.use_entry_points:
+                for ep in entry_points(group=GROUPS[role]):
+                    eps.setdefault(ep.name, ep)
+            self._entry_points[role] = eps
+        return eps
 
     def names(self, role: str) -> list[str]:
-        eps = {ep.name for ep in entry_points(group=GROUPS[role])} if self.use_entry_points else set()
-        return sorted(eps | set(self.extra.get(role, {})))
+        return sorted(set(self._group(role)) | set(self.extra.get(role, {})))
 
     def get(self, role: str, name: str) -> Any:
         """The plugin class (or command function) `name` of `role`."""
@@ -47,7 +64,8 @@ class Registry:
         key = (role, name)
         if key in self._cache:
             return self._cache[key]
-        for ep in entry_points(group=GROUPS[role], name=name) if self.use_entry_points else ():
+        ep = self._group(role).get(name)
+        if ep is not None:
             obj = ep.load()
             self._cache[key] = obj
             return obj
@@ -56,13 +74,19 @@ class Registry:
         )
 
     def all(self, role: str) -> dict[str, Any]:
-        out = {}
+        return dict(self.iter(role))
+
+    def iter(self, role: str) -> Iterator[tuple[str, Any]]:
+        """(name, class) of every plugin of `role` in name order, each loaded only when
+        the iteration reaches it: a caller that stops early (the first plugin that
+        reads a file) does not pay for importing the others."""
         for n in self.names(role):
             try:
-                out[n] = self.get(role, n)
+                obj = self.get(role, n)
             except Exception as exc:  # a broken third-party plugin must not stop edged
                 log.warning("plugin=%s role=%s load failed: %s", n, role, exc)
-        return out
+                continue
+            yield n, obj
 
     def register(self, role: str, name: str, obj: Any) -> None:
         """Add a plugin by hand (tests, embedding)."""

@@ -67,31 +67,31 @@ class CountingReader(io.RawIOBase):
         super().close()
 
 
-def replay_readers(registry: Registry) -> list[tuple[str, Any]]:
-    """Every plugin class (input or output) that can read files for replay."""
-    out = []
+def replay_readers(registry: Registry) -> Iterator[tuple[str, Any]]:
+    """Every plugin class (input or output) that can read files for replay, inputs
+    first, each loaded only when reached."""
     for role in ("inputs", "outputs"):
-        for name, cls in registry.all(role).items():
+        for name, cls in registry.iter(role):
             if callable(getattr(cls, "sniff", None)) and callable(getattr(cls, "open_replay", None)):
-                out.append((name, cls))
-    return out
+                yield name, cls
 
 
 def detect(path: Path, registry: Registry) -> tuple[str, Any]:
-    """The plugin class that reads `path`, recognised by its first bytes."""
+    """The plugin class that reads `path`, recognised by its first bytes: the first
+    reader, in the registry's order, whose `sniff` says yes (the readers after it are
+    not even imported)."""
     try:
         with open(path, "rb") as f:
             head = f.read(HEAD_BYTES)
     except OSError as exc:
         raise UnknownFormat(f"{path}: cannot read: {exc.strerror or exc}") from None
-    readers = replay_readers(registry)
-    for name, cls in readers:
+    for name, cls in replay_readers(registry):
         try:
             if cls.sniff(head):
                 return name, cls
         except Exception as exc:  # a plugin's sniff must not decide for the others
             log.warning("plugin=%s sniff failed on %s: %s", name, path, exc)
-    kinds = ", ".join(n for n, _ in readers) or "none installed"
+    kinds = ", ".join(n for n, _ in replay_readers(registry)) or "none installed"
     raise UnknownFormat(f"{path}: format not recognised (readers: {kinds})")
 
 
@@ -126,9 +126,11 @@ class Replayer:
         self.progress = progress
         self.stats = ReplayStats()
         self._decoders: dict[tuple[str, str], Decoder | None] = {}
-        self._protocols = {
-            getattr(cls, "protocol", ""): cls for cls in runtime.registry.all("inputs").values()
-        }
+        #: protocol -> input class whose decoder reads it: first the inputs that read
+        #: the files (`_open`), so that a replay does not import every input plugin
+        #: (and its decoding stack); all inputs only for a protocol none of those speaks.
+        self._readers: dict[str, Any] = {}
+        self._protocols: dict[str, Any] | None = None
         self._streams: list[CountingReader] = []
         self.total_bytes = 0
 
@@ -137,6 +139,9 @@ class Replayer:
 
     def _open(self, path: Path) -> Iterator[RawRecord]:
         name, cls = detect(path, self.rt.registry)
+        protocol = getattr(cls, "protocol", "")
+        if protocol and callable(getattr(cls, "make_decoder", None)):
+            self._readers.setdefault(protocol, cls)
         source = path.stem
         in_cfg = self.rt.config.inputs.get(source)
         f = CountingReader(open(path, "rb"))  # closed in run()
@@ -150,7 +155,13 @@ class Replayer:
         key = (protocol, source)
         if key in self._decoders:
             return self._decoders[key]
-        cls = self._protocols.get(protocol)
+        cls = self._readers.get(protocol)
+        if cls is None:
+            if self._protocols is None:
+                self._protocols = {
+                    getattr(c, "protocol", ""): c for c in self.rt.registry.all("inputs").values()
+                }
+            cls = self._protocols.get(protocol)
         dec = None
         if cls is not None:
             cfg = self.rt.config.inputs.get(source)
@@ -237,7 +248,7 @@ def _t(r: RawRecord) -> float:
 
 
 def _type_name(registry: Registry, cls: Any) -> str | None:
-    for name, c in registry.all("inputs").items():
+    for name, c in registry.iter("inputs"):
         if c is cls:
             return name
     return None
