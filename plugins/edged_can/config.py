@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
-import cantools
-from cantools.database.can import Database
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from edged.config import KindName, ReconnectSettings
@@ -20,6 +18,9 @@ from edged.plugin import InputConfig
 from edged.records import KINDS
 
 from .reference import reference_dbc_path, reference_signals
+
+if TYPE_CHECKING:  # cantools is imported when a DBC is loaded: not by every `edged` command
+    from cantools.database.can import Database
 
 
 class SignalMap(BaseModel):
@@ -130,6 +131,8 @@ def default_config() -> CanConfig:
 def _load_dbc(path: Path) -> Database:
     if not path.is_file():
         raise ValueError(f"DBC file {str(path)!r} not found")
+    import cantools  # here, not at the top: see the TYPE_CHECKING import
+
     try:
         return cantools.database.load_file(path, database_format="dbc", strict=True)
     except Exception as exc:  # cantools raises parser-specific types; all mean "bad DBC"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import asyncio
-from typing import Any, BinaryIO, Callable, ClassVar, Iterator
+from typing import TYPE_CHECKING, Any, BinaryIO, Callable, ClassVar, Iterator
 
 import can
 
@@ -14,7 +14,10 @@ from edged.records import RawRecord
 from . import candump
 from .bus import SessionEnded, Sleep, pump
 from .config import CanConfig, default_config
-from .decoder import CanDecoder
+
+if TYPE_CHECKING:  # the decoder (cantools, nmea2000) is imported when a decoder is made,
+    # not when `edged replay` loads this class to ask whether it reads an NMEA 0183 log
+    from .decoder import CanDecoder
 
 #: What python-can raises when a bus cannot be opened (missing interface, no driver).
 _OPEN_ERRORS = (can.CanError, OSError, ValueError, NotImplementedError)
@@ -83,6 +86,8 @@ class CanInput(InputPlugin):
 
     @classmethod
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> CanDecoder:
+        from .decoder import CanDecoder
+
         return CanDecoder(source, config if isinstance(config, CanConfig) else default_config(), health)
 
     @classmethod
