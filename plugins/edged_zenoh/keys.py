@@ -141,9 +141,17 @@ def encode(obj: dict[str, Any]) -> tuple[bytes, bool]:
     orjson costs a tenth of `json.dumps` (every published record passes here) and
     already writes NaN and infinity as null: only a payload with a null in it is
     searched for them. Raises TypeError when a value has no JSON form.
+
+    The plain call comes first: passing `default` and `option` costs orjson as much
+    as the encoding of a small payload, and they change nothing for the payloads that
+    need neither (string keys, plain Python values), which are nearly all.
     """
     try:
-        data = orjson.dumps(obj, default=_default, option=_ORJSON_OPTIONS)
-    except TypeError:  # orjson.JSONEncodeError: let the standard library decide
-        return _encode_strict(obj)
-    return data, b"null" in data and _has_nonfinite(obj)
+        data = orjson.dumps(obj)
+    except TypeError:  # non-string keys, numpy values ...: the full call decides
+        try:
+            data = orjson.dumps(obj, default=_default, option=_ORJSON_OPTIONS)
+        except TypeError:  # orjson.JSONEncodeError: let the standard library decide
+            return _encode_strict(obj)
+    # `find` rather than `in`: half the cost on bytes, and this runs for every record.
+    return data, data.find(b"null") >= 0 and _has_nonfinite(obj)
