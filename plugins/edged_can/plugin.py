@@ -5,22 +5,28 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING, Any, BinaryIO, Callable, ClassVar, Iterator
 
-import can
-
 from edged.health import ComponentHealth
 from edged.plugin import InputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
 
 from . import candump
-from .bus import SessionEnded, Sleep, pump
 from .config import CanConfig, default_config
 
-if TYPE_CHECKING:  # the decoder (cantools, nmea2000) is imported when a decoder is made,
-    # not when `edged replay` loads this class to ask whether it reads an NMEA 0183 log
+if TYPE_CHECKING:
+    # python-can (the live bus) and the decoder (cantools, nmea2000) are imported when
+    # a bus is opened or a decoder made, not when `edged replay` loads this class only
+    # to ask whether it reads an NMEA 0183 log.
+    import can
+
+    from .bus import Sleep
     from .decoder import CanDecoder
 
-#: What python-can raises when a bus cannot be opened (missing interface, no driver).
-_OPEN_ERRORS = (can.CanError, OSError, ValueError, NotImplementedError)
+
+def _open_errors() -> tuple[type[BaseException], ...]:
+    """What python-can raises when a bus cannot be opened (missing interface, no driver)."""
+    import can
+
+    return (can.CanError, OSError, ValueError, NotImplementedError)
 
 
 class CanInput(InputPlugin):
@@ -32,6 +38,8 @@ class CanInput(InputPlugin):
 
     def __init__(self, config: CanConfig, ctx: PluginContext) -> None:
         super().__init__(config, ctx)
+        import can
+
         #: How a bus is opened and how the backoff waits; tests replace both.
         self.open_bus: Callable[..., can.BusABC] = can.Bus
         self.sleep: Sleep = asyncio.sleep
@@ -39,14 +47,17 @@ class CanInput(InputPlugin):
         self._session_frames = 0
 
     async def run(self) -> None:
+        from .bus import SessionEnded, pump
+
         cfg: CanConfig = self.config
         health = self.ctx.health
+        open_errors = _open_errors()
         backoff = cfg.backoff()
         while True:
             health.set_state("connecting")
             try:
                 bus = self.open_bus(interface=cfg.interface, channel=cfg.channel, bitrate=cfg.bitrate)
-            except _OPEN_ERRORS as exc:
+            except open_errors as exc:
                 health.count("bus.open_failed")
                 health.error(f"cannot open {cfg.interface} bus {cfg.channel!r}: {exc}")
                 health.set_state("reconnecting")
