@@ -64,33 +64,33 @@ def read_log(
     stamper = ReplayStamper(day)
     reporter = ProblemReporter(health)
     where = f" in {options.path}" if options.path else ""
-    push = stamper.push
 
-    def placed_records(placed: list[tuple[Framed, float]]) -> list[RawRecord]:
-        if stamper.assumed_date:
-            health.count("assumed_date", len(placed))
+    def records(placed: list[tuple[Framed, float]], n_assumed: int) -> list[RawRecord]:
+        """Lines placed in time -> records, counted once per chunk as framing's `lines`
+        is (so the counters add up between chunks, and no call is made per line)."""
+        if n_assumed:
+            health.count("assumed_date", n_assumed)
             reporter.report(f"no date{where} (no RMC/ZDA): times of day placed on 1970-01-01; give --date")
         health.count("accepted", len(placed))
-        return [
-            RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag})
-            for fr, t in placed
-        ]
+        return [RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag}) for fr, t in placed]
 
-    count = health.count
+    push = stamper.push
     while True:
         chunk = stream.read(CHUNK)
+        placed: list[tuple[Framed, float]] = []
+        n_assumed = 0
         for fr in framer.feed(chunk) if chunk else framer.flush():
-            placed = push(fr)
-            if placed is None:
+            ready = push(fr)
+            if ready is None:
                 framer.reject(NO_TIME)
-            elif len(placed) == 1 and not stamper.assumed_date:  # the common case, inline
-                count("accepted")
-                tag = fr.tag
-                yield RawRecord(PROTOCOL, source, placed[0][1], fr.sentence, None if tag is None else {"tag": tag})
-            elif placed:
-                yield from placed_records(placed)
+            elif ready:
+                placed += ready
+                if stamper.assumed_date:
+                    n_assumed += len(ready)
+        if placed:
+            yield from records(placed, n_assumed)
         if not chunk:
             break
     placed = stamper.finish()
     if placed:
-        yield from placed_records(placed)
+        yield from records(placed, len(placed) if stamper.assumed_date else 0)
