@@ -62,9 +62,14 @@ class BoundedQueue:
             finally:
                 if self._waiter is w:
                     self._waiter = None
-        n = min(len(items), max_items)
+        if len(items) <= max_items:
+            # The usual case (the consumer keeps up): take everything in one copy
+            # rather than one popleft per record.
+            batch = list(items)
+            items.clear()
+            return batch
         popleft = items.popleft
-        return [popleft() for _ in range(n)]
+        return [popleft() for _ in range(max_items)]
 
     def drain_nowait(self) -> list[Any]:
         out = list(self._items)
