@@ -72,7 +72,10 @@ def read_log(
             health.count("assumed_date", n_assumed)
             reporter.report(f"no date{where} (no RMC/ZDA): times of day placed on 1970-01-01; give --date")
         health.count("accepted", len(placed))
-        return [RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag}) for fr, t in placed]
+        return [
+            RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag})
+            for fr, t in placed
+        ]
 
     push = stamper.push
     while True:
