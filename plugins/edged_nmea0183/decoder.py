@@ -24,6 +24,7 @@ from edged.records import KINDS, InvalidMeasurement, Measurement, RawRecord, val
 
 from .handlers import HANDLERS, Env, Handler, Invalid
 from .reporting import ProblemReporter
+from .sentences import sentence_class
 from .timeofday import nearest_time
 
 MAX_UNKNOWN_KEYS = 64
@@ -47,14 +48,20 @@ class DecoderSettings:
 
 
 class _Type:
-    """Per sentence type: its handler and pre-built counter keys (no string work per line)."""
+    """Per sentence type: its handler, pre-built counter keys and field count.
 
-    __slots__ = ("handler", "sentences", "invalid")
+    `width` is the number of fields the standard gives the type (with the address):
+    a sentence from an older talker with fewer fields is padded with empty ones, so
+    handlers index fields directly and read a missing field as an empty one.
+    """
+
+    __slots__ = ("handler", "sentences", "invalid", "width")
 
     def __init__(self, stype: str, handler: Handler) -> None:
         self.handler = handler
         self.sentences = "sentences." + stype
         self.invalid = "invalid." + stype
+        self.width = len(sentence_class(stype).fields) + 1
 
 
 class Nmea0183Decoder:
@@ -91,6 +98,9 @@ class Nmea0183Decoder:
             return []
         counters = self._health.counters  # direct increments: this runs per sentence
         counters[entry.sentences] = counters.get(entry.sentences, 0) + 1
+        short = entry.width - len(f)
+        if short > 0:
+            f += [""] * short
         try:
             items, tod, variation = entry.handler(f, self._env)
         except (Invalid, ValueError, IndexError) as exc:

@@ -112,11 +112,6 @@ def _heading(magnetic_deg: float, variation: float | None) -> Items:
     return [("heading", {"heading": wrap_angle((magnetic_deg + variation) * DEG)})]
 
 
-def _get(f: list[str], i: int) -> str:
-    """Field `i`, or empty when a talker sent fewer fields than the standard has."""
-    return f[i] if i < len(f) else ""
-
-
 # ---- handlers ----------------------------------------------------------------------
 
 _GGA = field_index("GGA", "timestamp", "lat", "lat_dir", "lon", "lon_dir", "gps_qual", "num_sats", "horizontal_dil")
@@ -167,7 +162,7 @@ _RMC = field_index(
 
 def rmc(f: list[str], env: Env) -> Out:
     ts, st, la, lad, lo, lod, sog, cog, var, vard, mode = _RMC
-    if f[st] != "A" or _faa_invalid(_get(f, mode)):
+    if f[st] != "A" or _faa_invalid(f[mode]):
         raise Invalid("status")
     items: Items = [("position", {"lat": _lat(f[la], f[lad]), "lon": _lon(f[lo], f[lod])})]
     if f[sog]:
@@ -175,7 +170,7 @@ def rmc(f: list[str], env: Env) -> Out:
         items.append(
             ("velocity_ground", {"sog": float(f[sog]) * KNOT, "cog": wrap_angle(float(course) * DEG) if course else None})
         )
-    return items, parse_tod(f[ts]), _signed(_get(f, var), _get(f, vard))
+    return items, parse_tod(f[ts]), _signed(f[var], f[vard])
 
 
 _GLL = field_index("GLL", "lat", "lat_dir", "lon", "lon_dir", "timestamp", "status", "faa_mode")
@@ -183,11 +178,11 @@ _GLL = field_index("GLL", "lat", "lat_dir", "lon", "lon_dir", "timestamp", "stat
 
 def gll(f: list[str], env: Env) -> Out:
     la, lad, lo, lod, ts, st, mode = _GLL
-    status = _get(f, st)
-    if (status and status != "A") or _faa_invalid(_get(f, mode)):  # pre-2.0 GLL has no status
+    status = f[st]
+    if (status and status != "A") or _faa_invalid(f[mode]):  # pre-2.0 GLL has no status
         raise Invalid("status")
     pos = {"lat": _lat(f[la], f[lad]), "lon": _lon(f[lo], f[lod])}
-    return [("position", pos)], parse_tod(_get(f, ts)), None
+    return [("position", pos)], parse_tod(f[ts]), None
 
 
 _VTG = field_index("VTG", "true_track", "spd_over_grnd_kts", "spd_over_grnd_kmph", "faa_mode")
@@ -195,11 +190,11 @@ _VTG = field_index("VTG", "true_track", "spd_over_grnd_kts", "spd_over_grnd_kmph
 
 def vtg(f: list[str], env: Env) -> Out:
     cog, kts, kmh, mode = _VTG
-    if _faa_invalid(_get(f, mode)):
+    if _faa_invalid(f[mode]):
         raise Invalid("mode N")
     if f[kts]:
         sog = float(f[kts]) * KNOT
-    elif _get(f, kmh):
+    elif f[kmh]:
         sog = float(f[kmh]) * KMH
     else:
         raise Invalid("no speed")
@@ -220,7 +215,7 @@ _THS_VALID = frozenset("AEM")  # autonomous, estimated (dead reckoning), manual 
 
 def ths(f: list[str], env: Env) -> Out:
     h, mode = _THS
-    if _get(f, mode) not in _THS_VALID:
+    if f[mode] not in _THS_VALID:
         raise Invalid("mode")  # V invalid, S simulator
     return [("heading", {"heading": wrap_angle(float(f[h]) * DEG)})], None, None
 
@@ -230,8 +225,8 @@ _HDG = field_index("HDG", "heading", "deviation", "dev_dir", "variation", "var_d
 
 def hdg(f: list[str], env: Env) -> Out:
     h, dev, devd, var, vard = _HDG
-    magnetic = float(f[h]) + (_signed(_get(f, dev), _get(f, devd)) or 0.0)
-    own = _signed(_get(f, var), _get(f, vard))
+    magnetic = float(f[h]) + (_signed(f[dev], f[devd]) or 0.0)
+    own = _signed(f[var], f[vard])
     return _heading(magnetic, own if own is not None else env.variation), None, None
 
 
@@ -247,7 +242,7 @@ _ROT = field_index("ROT", "rate_of_turn", "status")
 
 def rot(f: list[str], env: Env) -> Out:
     r, st = _ROT
-    if _get(f, st) != "A":
+    if f[st] != "A":
         raise Invalid("status")
     return [("yaw_rate", {"r": float(f[r]) * DEG_PER_MIN})], None, None
 
@@ -261,8 +256,8 @@ _VBW = field_index(
 def vbw(f: list[str], env: Env) -> Out:
     wl, wt, wst, gl, gt, gst = _VBW
     items: Items = []
-    water_ok = _get(f, wst) == "A" and bool(f[wl])
-    ground_ok = _get(f, gst) == "A" and bool(_get(f, gl))
+    water_ok = f[wst] == "A" and bool(f[wl])
+    ground_ok = f[gst] == "A" and bool(f[gl])
     if not water_ok and not ground_ok:
         raise Invalid("status")
     if water_ok:
@@ -270,7 +265,7 @@ def vbw(f: list[str], env: Env) -> Out:
     if ground_ok and env.vbw_ground:
         # Ground speeds are along/across the hull: their direction needs the heading,
         # so only the speed is stated here.
-        sog = math.hypot(float(f[gl]), float(_get(f, gt) or 0.0)) * KNOT
+        sog = math.hypot(float(f[gl]), float(f[gt] or 0.0)) * KNOT
         items.append(("velocity_ground", {"sog": sog, "cog": None}))
     return items, None, None
 
@@ -284,9 +279,9 @@ _VHW = field_index("VHW", "water_speed_knots", "water_speed_km")
 
 def vhw(f: list[str], env: Env) -> Out:
     kts, kmh = _VHW
-    if _get(f, kts):
+    if f[kts]:
         stw = float(f[kts]) * KNOT
-    elif _get(f, kmh):
+    elif f[kmh]:
         stw = float(f[kmh]) * KMH
     else:
         raise Invalid("no speed")
@@ -300,11 +295,11 @@ def vdr(f: list[str], env: Env) -> Out:
     true, mag, drift = _VDR
     if f[true]:
         set_deg = float(f[true])
-    elif _get(f, mag) and env.variation is not None:
+    elif f[mag] and env.variation is not None:
         set_deg = float(f[mag]) + env.variation
     else:
         raise Invalid("no set")
-    return [("current", {"set": wrap_angle(set_deg * DEG), "drift": float(_get(f, drift)) * KNOT})], None, None
+    return [("current", {"set": wrap_angle(set_deg * DEG), "drift": float(f[drift]) * KNOT})], None, None
 
 
 _DPT = field_index("DPT", "depth", "offset")
@@ -312,7 +307,7 @@ _DPT = field_index("DPT", "depth", "offset")
 
 def dpt(f: list[str], env: Env) -> Out:
     d, off = _DPT
-    return [("depth", {"depth": float(f[d]), "offset": _opt(_get(f, off))})], None, None
+    return [("depth", {"depth": float(f[d]), "offset": _opt(f[off])})], None, None
 
 
 _DBT = field_index("DBT", "depth_feet", "depth_meters", "depth_fathoms")
@@ -320,11 +315,11 @@ _DBT = field_index("DBT", "depth_feet", "depth_meters", "depth_fathoms")
 
 def dbt(f: list[str], env: Env) -> Out:
     ft, m, fa = _DBT
-    if _get(f, m):
+    if f[m]:
         depth = float(f[m])
     elif f[ft]:
         depth = float(f[ft]) * FOOT
-    elif _get(f, fa):
+    elif f[fa]:
         depth = float(f[fa]) * FATHOM
     else:
         raise Invalid("no depth")
