@@ -10,12 +10,10 @@ the float `t` itself, so replay reproduces it bit for bit (ns rounding would not
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any, Callable, Iterable
 
-import orjson
-
+from edged import jsonpayload
 from edged.records import KINDS, Estimate, HealthRecord, Measurement, RawRecord, measurement_to_json
 
 from .schemas import LOCATION_FIX
@@ -54,86 +52,8 @@ def to_ns(t: float) -> int:
     return ns if ns > 0 else 0
 
 
-def _jsonable(o: Any) -> Any:
-    # numpy scalars and arrays (estimators use numpy) know how to become Python values.
-    for attr in ("tolist", "item"):
-        f = getattr(o, attr, None)
-        if callable(f):
-            return f()
-    if isinstance(o, (set, frozenset, tuple)):
-        return list(o)
-    raise TypeError(f"{type(o).__name__} is not JSON serialisable")
-
-
-def _finite(o: Any) -> Any:
-    if isinstance(o, float):
-        return o if math.isfinite(o) else None
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_finite(v) for v in o]
-    return o
-
-
-#: The standard library's encoder is the authority on what is JSON (and the fallback for
-#: the little orjson refuses: integers beyond 64 bits, strings with lone surrogates).
-#: Built once: `json.dumps` with options builds a new encoder per call.
-_STRICT = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_jsonable).encode
-_ORJSON_OPTIONS = orjson.OPT_NON_STR_KEYS
-
-
-def _has_nonfinite(o: Any) -> bool:
-    """True when a NaN or infinity is somewhere in `o` (payloads are small and flat:
-    one loop over the values, a call only for nested containers)."""
-    if isinstance(o, dict):
-        values: Any = o.values()
-    elif isinstance(o, (list, tuple)):
-        values = o
-    elif isinstance(o, float):
-        return not math.isfinite(o)
-    else:
-        tolist = getattr(o, "tolist", None)  # numpy values: as they will be written
-        return callable(tolist) and _has_nonfinite(tolist())
-    for v in values:
-        c = v.__class__
-        if c is float:
-            if v - v != 0.0:  # NaN - NaN and inf - inf are NaN, which equals nothing
-                return True
-        elif c is not str and c is not int and c is not bool and v is not None and _has_nonfinite(v):
-            return True
-    return False
-
-
-def _dumps_strict(payload: dict[str, Any]) -> tuple[bytes, bool]:
-    try:
-        return _STRICT(payload).encode(), False
-    except ValueError:
-        clean = _finite(json.loads(json.dumps(payload, default=_jsonable)))
-        return _STRICT(clean).encode(), True
-
-
-def dumps(payload: dict[str, Any]) -> tuple[bytes, bool]:
-    """Compact JSON bytes, and whether non-finite numbers had to become null.
-
-    NaN and infinity are not JSON: readers (Foxglove, pandas, jq) reject the file's
-    messages if they appear, so they are recorded as null and counted by the caller.
-    orjson encodes a message in a tenth of the standard library's time (every record
-    of a replay passes here, often several times) and already writes non-finite
-    numbers as null; only a payload with a null in it is searched for one.
-
-    The plain call comes first: passing `default` and `option` costs orjson as much
-    as the encoding of a small payload, and they change nothing for the payloads that
-    need neither (string keys, plain Python values), which are nearly all.
-    """
-    try:
-        data = orjson.dumps(payload)
-    except TypeError:  # non-string keys, numpy values ...: the full call decides
-        try:
-            data = orjson.dumps(payload, default=_jsonable, option=_ORJSON_OPTIONS)
-        except TypeError:  # orjson.JSONEncodeError: let the standard library decide
-            return _dumps_strict(payload)
-    # `find` rather than `in`: half the cost on bytes, and this runs for every message.
-    return data, data.find(b"null") >= 0 and _has_nonfinite(payload)
+#: One encoder of JSON payloads for every output (NaN and infinity as null, counted).
+dumps = jsonpayload.dumps
 
 
 # -- raw records --------------------------------------------------------------------
