@@ -7,6 +7,8 @@ A transport only moves bytes: `open`, `read` (some bytes; b"" at end of stream),
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
@@ -42,3 +44,25 @@ class Transport(ABC):
     @abstractmethod
     def describe(self) -> str:
         """Where it reads from, for logs and health (`tcp 10.0.0.5:10110`)."""
+
+
+class StreamTransport(Transport):
+    """A transport asyncio gives as a reader/writer pair (TCP, serial): `open` sets them."""
+
+    #: Bytes asked of the stream per read.
+    read_size: ClassVar[int] = 65536
+
+    def __init__(self) -> None:
+        self._reader: asyncio.StreamReader | None = None
+        self._writer: asyncio.StreamWriter | None = None
+
+    async def read(self) -> bytes:
+        assert self._reader is not None, "read before open"
+        return await self._reader.read(self.read_size)
+
+    async def close(self) -> None:
+        w, self._writer, self._reader = self._writer, None, None
+        if w is not None:
+            w.close()
+            with contextlib.suppress(OSError):
+                await w.wait_closed()

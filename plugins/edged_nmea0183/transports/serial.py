@@ -2,21 +2,19 @@
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 from typing import Any
 
 import serial_asyncio_fast
 
-from .base import Transport
+from .base import StreamTransport
 
 
-class SerialTransport(Transport):
+class SerialTransport(StreamTransport):
+    read_size = 4096  # at 38400 Bd a read of 4 KiB is a second of data
     def __init__(self, device: str, baudrate: int = 4800) -> None:
         self.device = device
         self.baudrate = baudrate
-        self._reader: asyncio.StreamReader | None = None
-        self._writer: asyncio.StreamWriter | None = None
+        super().__init__()
 
     @classmethod
     def from_config(cls, config: Any) -> "SerialTransport":
@@ -27,17 +25,6 @@ class SerialTransport(Transport):
         self._reader, self._writer = await serial_asyncio_fast.open_serial_connection(
             url=self.device, baudrate=self.baudrate
         )
-
-    async def read(self) -> bytes:
-        assert self._reader is not None, "read before open"
-        return await self._reader.read(4096)
-
-    async def close(self) -> None:
-        w, self._writer, self._reader = self._writer, None, None
-        if w is not None:
-            w.close()
-            with contextlib.suppress(OSError):
-                await w.wait_closed()
 
     def describe(self) -> str:
         return f"serial {self.device} @ {self.baudrate} Bd"
