@@ -132,5 +132,7 @@ def main(args: argparse.Namespace, registry: Registry | None = None, out: TextIO
     files = sorted(record_dir.glob("*.mcap"))
     print(f"edged demo: recorded {', '.join(str(f) for f in files) or 'nothing'}", file=out)
     if files:
-        print(f"  look at it:  edged inspect {files[-1]}   /   edged plot {files[-1]} -o demo.png", file=out)
+        edged = sys.argv[0] if os.sep in sys.argv[0] else "edged"  # as the user ran it
+        print(f"  look at it:  {edged} inspect {files[-1]}", file=out)
+        print(f"               {edged} plot {files[-1]} -o demo.png", file=out)
     return rc
