@@ -154,7 +154,13 @@ def frame(line: bytes, policy: str = "require", line_xor: int | None = None) -> 
         split = _split_tag(line, policy)
         if isinstance(split, str):
             return split
-        tag, t_log, line = split
+        tag, t_log, rest = split
+        if line_xor is not None and len(line) == n:
+            # Take the block's bytes out of the line's XOR (a short block instead of
+            # the whole sentence), so the sentence keeps the chunk's fast checksum.
+            line_xor ^= nmea_checksum(line[: len(line) - len(rest)])
+            n = len(rest)
+        line = rest
     elif first in _DIGITS:  # "1732350000.123 $GPGGA,..."
         head, _, rest = line.partition(b" ")
         rest = rest.lstrip()

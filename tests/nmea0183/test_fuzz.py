@@ -42,7 +42,11 @@ def sentences(draw) -> bytes:
     cs = reduce(xor, body.encode(), 0)
     if draw(st.booleans()):
         cs ^= draw(st.integers(0, 255))
-    start = draw(st.sampled_from(["$", "$", "!", "", "\\c:1700000000*04\\$", "1700000000 $"]))
+    start = draw(st.sampled_from([
+        "$", "$", "!", "", "\\c:1700000000*04\\$", "1700000000 $",
+        # TAG blocks with right checksums: their sentences take the chunk's fast checksum
+        "\\c:1700000000*5F\\$", "\\s:gnss,c:1700000000.5*28\\$",
+    ]))
     end = draw(st.sampled_from(["\r\n", "\n", "\r", ""]))
     return f"{start}{body}*{cs:02X}{end}".encode()
 
