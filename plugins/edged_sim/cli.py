@@ -6,11 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
+
 from .run import Simulation
 from .scenarios import SCENARIOS
 from .writers import write_run
-
-EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 
 
 def main(args: argparse.Namespace) -> int:

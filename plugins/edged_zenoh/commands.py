@@ -17,12 +17,13 @@ from typing import Any, Iterator, Mapping, TextIO
 
 import zenoh
 
+from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
+
 from .fleet import run_fleet
 from .zconfig import DEFAULT_LISTEN, ZenohConfigError, listen_endpoints, load_json5, merge, safe_defaults, to_zenoh
 
 __all__ = ["router_main", "fleet_main", "run_router", "command_config", "ROUTER_DEFAULTS", "FLEET_DEFAULTS"]
 
-EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 
 #: A router on the ship's own loopback: the daemon and local tools meet here.
 ROUTER_DEFAULTS = safe_defaults(mode="router")
