@@ -242,19 +242,21 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
 
 async def _replay(rt: Runtime, paths: list[Path], args: argparse.Namespace) -> ReplayStats:
     bar = None
-    progress = None
     if not args.no_progress:
         from tqdm import tqdm
 
         bar = tqdm(total=None, unit="B", unit_scale=True, desc="replay", disable=None, leave=False)
 
-        def progress(done: int, total: int) -> None:
-            if bar.total != total:
-                bar.total = total
-            bar.n = done
-            bar.refresh()
+    def show_progress(done: int, total: int) -> None:
+        assert bar is not None
+        if bar.total != total:
+            bar.total = total
+        bar.n = done
+        bar.refresh()
 
-    replayer = Replayer(rt, paths, speed=args.speed, date=args.date, progress=progress)
+    replayer = Replayer(
+        rt, paths, speed=args.speed, date=args.date, progress=show_progress if bar is not None else None
+    )
     await rt.start()
     try:
         return await replayer.run()

@@ -24,8 +24,8 @@ from edged.records import RawRecord
 
 from .decode import ZenohDecoder
 from .keys import KeySpace, valid_chunk
-from .session import close_session, open_session
-from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults, session_config, to_zenoh
+from .session import close_session, open_plugin_session, plugin_session_config
+from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults
 
 __all__ = ["ZenohInput", "ZenohInputConfig", "KeyMapping"]
 
@@ -100,26 +100,11 @@ class ZenohInput(InputPlugin):
 
     def check(self) -> None:
         """The zenoh configuration files named here or by --zenoh-config must load."""
-        cfg = session_config(
-            self.config, config_dir=self.ctx.config_dir, cli_file=self.ctx.options.get("zenoh_config"), base=self._base_config()
-        )
-        to_zenoh(cfg)  # raises ZenohConfigError (a ValueError) naming the file
+        plugin_session_config(self.config, self.ctx, self._base_config())  # ZenohConfigError is a ValueError
 
     async def run(self) -> None:
-        cfg = session_config(
-            self.config,
-            config_dir=self.ctx.config_dir,
-            cli_file=self.ctx.options.get("zenoh_config"),
-            base=self._base_config(),
-        )
-        session, _ = await open_session(
-            cfg,
-            self.ctx.health,
-            self.ctx.log,
-            listen_fallback=self.config.listen_fallback,
-            retry_initial=self.config.retry_initial,
-            retry_max=self.config.retry_max,
-        )
+        cfg = plugin_session_config(self.config, self.ctx, self._base_config())
+        session = await open_plugin_session(self.config, self.ctx, cfg)
         routes = self._routes()
         pool = ThreadPoolExecutor(max_workers=max(1, len(routes)), thread_name_prefix=f"{self.ctx.name}-recv")
         try:

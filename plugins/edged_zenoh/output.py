@@ -21,8 +21,8 @@ from edged.records import KINDS, Estimate, HealthRecord, Measurement
 from .keys import KeySpace, encode, payload_of, valid_chunk
 from .latest import LatestValues
 from .ratelimit import DataTimeRateLimiter
-from .session import close_session, open_session
-from .zconfig import ZenohSettings, check_key_prefix, session_config, to_zenoh
+from .session import close_session, open_plugin_session, plugin_session_config
+from .zconfig import ZenohSettings, check_key_prefix
 
 __all__ = ["ZenohOutput", "ZenohOutputConfig"]
 
@@ -94,31 +94,18 @@ class ZenohOutput(OutputPlugin):
 
     def check(self) -> None:
         """The zenoh configuration files named here or by --zenoh-config must load."""
-        cfg = session_config(
-            self.config, config_dir=self.ctx.config_dir, cli_file=self.ctx.options.get("zenoh_config")
-        )
-        to_zenoh(cfg)  # raises ZenohConfigError (a ValueError) naming the file
+        plugin_session_config(self.config, self.ctx)  # ZenohConfigError is a ValueError
 
     # -- lifecycle ---------------------------------------------------------------
     async def open(self) -> None:
         """Check the configuration now; connect in the background, never failing."""
-        cfg = session_config(
-            self.config, config_dir=self.ctx.config_dir, cli_file=self.ctx.options.get("zenoh_config")
-        )
-        to_zenoh(cfg)
+        cfg = plugin_session_config(self.config, self.ctx)
         self.ctx.health.info["key_prefix"] = self.keyspace.prefix
         self.ctx.health.info["zenoh"] = "connecting"
         self._connector = asyncio.create_task(self._connect(cfg), name=f"{self.ctx.name}.connect")
 
     async def _connect(self, cfg: dict[str, Any]) -> None:
-        session, _ = await open_session(
-            cfg,
-            self.ctx.health,
-            self.ctx.log,
-            listen_fallback=self.config.listen_fallback,
-            retry_initial=self.config.retry_initial,
-            retry_max=self.config.retry_max,
-        )
+        session = await open_plugin_session(self.config, self.ctx, cfg)
         try:
             if self.config.queryable:
                 self._queryable = session.declare_queryable(self.keyspace.everything, self._on_query)

@@ -19,14 +19,16 @@ from edged.backoff import Backoff
 from edged.health import ComponentHealth
 
 from .zconfig import (
+    ZenohSettings,
     endpoint_in_use,
     free_port_endpoint,
     listen_endpoints,
+    session_config,
     to_zenoh,
     with_listen_endpoints,
 )
 
-__all__ = ["open_session", "close_session"]
+__all__ = ["open_session", "close_session", "plugin_session_config", "open_plugin_session"]
 
 Sleep = Callable[[float], Awaitable[None]]
 
@@ -108,3 +110,24 @@ async def close_session(session: zenoh.Session | None) -> None:
     """Close in a thread: closing flushes and says goodbye to peers, which may wait."""
     if session is not None and not session.is_closed():
         await asyncio.shield(asyncio.to_thread(session.close))
+
+
+def plugin_session_config(settings: ZenohSettings, ctx: Any, base: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The session configuration of a plugin (input or output): its settings, its
+    json5 file and `--zenoh-config`, over `base`; checked by zenoh (ZenohConfigError)."""
+    cfg = session_config(settings, config_dir=ctx.config_dir, cli_file=ctx.options.get("zenoh_config"), base=base)
+    to_zenoh(cfg)
+    return cfg
+
+
+async def open_plugin_session(settings: ZenohSettings, ctx: Any, cfg: Mapping[str, Any]) -> zenoh.Session:
+    """`open_session` with a plugin's health, log and retry settings."""
+    session, _ = await open_session(
+        cfg,
+        ctx.health,
+        ctx.log,
+        listen_fallback=settings.listen_fallback,
+        retry_initial=settings.retry_initial,
+        retry_max=settings.retry_max,
+    )
+    return session

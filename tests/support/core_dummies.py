@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-from pathlib import Path
 from typing import Any, BinaryIO, Iterator
 
 from edged.plugin import (
@@ -16,7 +15,6 @@ from edged.plugin import (
 )
 from edged.health import ComponentHealth
 from edged.records import Estimate, Measurement, RawRecord
-from edged.registry import Registry
 
 
 class DummyDecoder:
