@@ -21,7 +21,10 @@ from typing import Any
 
 import orjson
 
-__all__ = ["dumps"]
+from .estimates import estimate_to_json
+from .records import Estimate, HealthRecord, Measurement, measurement_to_json
+
+__all__ = ["dumps", "record_json", "health_to_json"]
 
 
 def _plain(o: Any) -> Any:
@@ -94,3 +97,26 @@ def dumps(payload: Any) -> tuple[bytes, bool]:
             return _dumps_strict(payload)
     # `find` rather than `in`: half the cost on bytes, and this runs for every message.
     return data, data.find(b"null") >= 0 and _has_nonfinite(payload)
+
+
+def health_to_json(h: HealthRecord) -> dict[str, Any]:
+    """A health snapshot's JSON object; the record's `t` wins."""
+    d: dict[str, Any] = {"t": h.t}
+    d.update(h.values)
+    d["t"] = h.t
+    return d
+
+
+#: Record type -> its JSON object: the one mapping every output uses (Zenoh payloads
+#: and MCAP messages of the same record are the same JSON). Raw records have none:
+#: each recorder spells its raw channels itself, and nothing publishes them.
+_JSON_OF = {
+    Measurement: measurement_to_json,
+    Estimate: estimate_to_json,
+    HealthRecord: health_to_json,
+}
+
+
+def record_json(rec: Any) -> dict[str, Any]:
+    """The JSON object of a measurement, estimate or health record (KeyError otherwise)."""
+    return _JSON_OF[type(rec)](rec)

@@ -188,19 +188,26 @@ class Measurement:
 
 
 class Estimate:
-    """A fused result of an estimator worker (`stw`, `manoeuvre`, `draft`).
+    """A fused result of an estimator worker.
 
-    Estimates are routed like measurements under the key `est/<name>`, so that one
+    `name` is the estimator instance's configuration table name (`stw`, `stw_paper`):
+    estimates are routed like measurements under the key `est/<name>`, so that one
     estimator may consume another's output (the draft worker uses the STW estimate).
+    `kind` names its fields in `edged.estimates.ESTIMATE_KINDS` (None: a kind this
+    version does not define). The worker host sets `name`, `source` and `kind` from the
+    configuration, so a core never chooses the key it is published under.
     """
 
-    __slots__ = ("name", "source", "t", "values")
+    __slots__ = ("name", "source", "t", "values", "kind")
 
-    def __init__(self, name: str, source: str, t: float, values: dict[str, Any]) -> None:
+    def __init__(
+        self, name: str, source: str, t: float, values: dict[str, Any], kind: str | None = None
+    ) -> None:
         self.name = name
         self.source = source
         self.t = t
         self.values = values
+        self.kind = kind
 
     @property
     def route_key(self) -> str:
@@ -209,15 +216,18 @@ class Estimate:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Estimate):
             return NotImplemented
-        return (self.name, self.source, self.t, self.values) == (
+        return (self.name, self.source, self.t, self.values, self.kind) == (
             other.name,
             other.source,
             other.t,
             other.values,
+            other.kind,
         )
 
     def __repr__(self) -> str:
-        return f"Estimate({self.name!r}, {self.source!r}, t={self.t!r}, values={self.values!r})"
+        return (
+            f"Estimate({self.name!r}, {self.source!r}, t={self.t!r}, values={self.values!r}, kind={self.kind!r})"
+        )
 
 
 class RawRecord:

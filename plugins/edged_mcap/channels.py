@@ -14,7 +14,9 @@ import math
 from typing import Any, Callable, Iterable
 
 from edged import jsonpayload
-from edged.records import KINDS, Estimate, HealthRecord, Measurement, RawRecord, measurement_to_json
+from edged.estimates import ESTIMATE_KINDS
+from edged.jsonpayload import record_json
+from edged.records import KINDS, Estimate, HealthRecord, Measurement, RawRecord
 
 from .schemas import LOCATION_FIX
 
@@ -139,24 +141,21 @@ def _location_fix(m: Measurement) -> Out:
 
 def _encode_measurement(m: Measurement) -> Iterable[Out]:
     schema = f"edged.meas.{m.kind}" if m.kind in KINDS else "edged.meas"
-    out = (f"/meas/{m.kind}/{m.source}", schema, measurement_to_json(m))
+    out = (f"/meas/{m.kind}/{m.source}", schema, record_json(m))
     if m.kind == "position" and "lat" in m.values and "lon" in m.values:
         return (out, _location_fix(m))
     return (out,)
 
 
 def _encode_estimate(e: Estimate) -> Iterable[Out]:
-    payload: dict[str, Any] = {"t": e.t}
-    payload.update(e.values)
-    payload["t"] = e.t  # the record's time is authoritative
-    return ((f"/est/{e.name}", "edged.est", payload),)
+    # The core's JSON of the estimate (the same bytes Zenoh publishes); the channel's
+    # schema is its kind's, or the open one for a kind this version does not define.
+    schema = f"edged.est.{e.kind}" if e.kind in ESTIMATE_KINDS else "edged.est"
+    return ((f"/est/{e.name}", schema, record_json(e)),)
 
 
 def _encode_health(h: HealthRecord) -> Iterable[Out]:
-    payload: dict[str, Any] = {"t": h.t}
-    payload.update(h.values)
-    payload["t"] = h.t
-    return (("/health", "edged.health", payload),)
+    return (("/health", "edged.health", record_json(h)),)
 
 
 _ENCODERS: dict[type, Callable[[Any], Iterable[Out]]] = {

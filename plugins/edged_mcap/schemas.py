@@ -12,7 +12,8 @@ import json
 from functools import cache
 from typing import Any
 
-from edged.records import KINDS, Field, KindSpec
+from edged.estimates import COMMON_FIELDS, DRAFT_MARKS, ESTIMATE_KINDS, EstField, EstimateKind
+from edged.records import KINDS, TWO_PI, Field, KindSpec
 
 __all__ = [
     "SCHEMA_ENCODING",
@@ -99,9 +100,27 @@ def _raw_other() -> dict[str, Any]:
 
 
 def _estimate() -> dict[str, Any]:
-    # Estimators add fields freely (DESIGN §6: more may be added, none renamed), so the
-    # schema fixes only what every estimate has.
-    return _obj("edged.est", "A fused estimate; fields per DESIGN §6.", {"t": _TIME}, ["t"], extra=True)
+    # An estimate of a kind this version does not define: only `t` is certain.
+    return _obj("edged.est", "A fused estimate of a kind this version does not define.", {"t": _TIME}, ["t"], extra=True)
+
+
+def _est_field(f: EstField) -> dict[str, Any]:
+    types: Any = [f.type, "null"] if f.nullable else f.type
+    s: dict[str, Any] = {"type": types, "description": f"{f.doc} [{f.unit}]"}
+    if f.angle:
+        s["minimum"], s["maximum"] = 0.0, TWO_PI
+    return s
+
+
+def _estimate_kind(kind: EstimateKind) -> dict[str, Any]:
+    # From the one definition of the kind (edged.estimates). Estimators may add fields
+    # (DESIGN §6: more may be added, none renamed), so extra properties are allowed.
+    props = {f.name: _est_field(f) for f in COMMON_FIELDS + kind.fields}
+    if kind.mark_fields:
+        mark = {"type": "object", "properties": {f.name: _est_field(f) for f in kind.mark_fields}}
+        props["marks"] = {**props["marks"], "properties": {m: mark for m in DRAFT_MARKS}}
+    required = [f.name for f in COMMON_FIELDS]
+    return _obj(f"edged.est.{kind.name}", kind.doc, props, required, extra=True)
 
 
 def _health() -> dict[str, Any]:
@@ -142,6 +161,7 @@ def _location_fix() -> dict[str, Any]:
 def _all() -> dict[str, dict[str, Any]]:
     out = {s["title"]: s for s in (_raw_nmea(), _raw_can(), _raw_other(), _estimate(), _health(), _location_fix())}
     out.update({f"edged.meas.{k}": _measurement(spec) for k, spec in KINDS.items()})
+    out.update({f"edged.est.{k}": _estimate_kind(kind) for k, kind in ESTIMATE_KINDS.items()})
     out["edged.meas"] = _obj("edged.meas", "A measurement of a kind unknown to this version.", {"t": _TIME}, ["t"], extra=True)
     return out
 

@@ -1,8 +1,8 @@
 """The key space and JSON payloads of DESIGN §6, in one place.
 
 `KeySpace` spells every key under the vessel's prefix; `payload_of` turns a record into
-the JSON object published for it, through a table keyed by record type (no per-
-estimator code: an estimate named `foo` becomes `est/foo` with `{"t", **values}`).
+the JSON object published for it, through the core's one table keyed by record type
+(`edged.jsonpayload.record_json`: no per-estimator code, the same JSON as recorded).
 """
 
 from __future__ import annotations
@@ -12,9 +12,8 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from edged import jsonpayload
-from edged.records import Estimate, HealthRecord, Measurement, measurement_to_json
 
-__all__ = ["KeySpace", "PAYLOADS", "payload_of", "encode", "valid_chunk"]
+__all__ = ["KeySpace", "payload_of", "encode", "valid_chunk"]
 
 _BAD_CHUNK = re.compile(r"[*$?#/\s]")
 
@@ -53,26 +52,9 @@ class KeySpace:
         return f"{self.prefix}/meas/{kind}/{source}"
 
 
-def _estimate_json(e: Estimate) -> dict[str, Any]:
-    out: dict[str, Any] = {"t": e.t}
-    out.update(e.values)
-    return out
-
-
-def _health_json(h: HealthRecord) -> dict[str, Any]:
-    return h.values
-
-
-#: Record type -> its JSON object. Raw records have no entry: they are not published.
-PAYLOADS: dict[type, Callable[[Any], dict[str, Any]]] = {
-    Measurement: measurement_to_json,
-    Estimate: _estimate_json,
-    HealthRecord: _health_json,
-}
-
-
-def payload_of(rec: Any) -> dict[str, Any]:
-    return PAYLOADS[type(rec)](rec)
+#: Record type -> its JSON object, the core's one mapping (the same JSON as MCAP's).
+#: Raw records have no entry: they are not published.
+payload_of: Callable[[Any], dict[str, Any]] = jsonpayload.record_json
 
 
 def encode(obj: dict[str, Any]) -> tuple[bytes, bool]:

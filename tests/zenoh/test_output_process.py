@@ -43,7 +43,7 @@ def test_subscriber_process_receives_keys_and_payloads(make_ctx, free_port, zpee
                 RawRecord("nmea0183", "gyro", T0 + 0.1, b"$HEHDT,28.6,T*1C"),
                 Measurement("heading", "gyro", T0 + 0.2, {"heading": 0.6}, t_src=T0 + 0.19),
                 Measurement("position", "gnss1", T0 + 0.2, {"lat": 60.1, "lon": 24.9, "fix_quality": 1}),
-                Estimate("stw", "stw", T0 + 0.2, {"stw": 5.1, "stw_std": 0.1, "dvl_stw": None}),
+                Estimate("stw", "stw", T0 + 0.2, {"stw": 5.1, "stw_std": 0.1, "dvl_stw": None}, kind="stw"),
                 Estimate("some_future_estimator", "x", T0 + 0.2, {"a": [1, 2], "b": {"c": math.nan}}),
                 HealthRecord(T0 + 0.3, {"t": T0 + 0.3, "outputs": {"zenoh": {"state": "running"}}}),
             ]
@@ -58,9 +58,13 @@ def test_subscriber_process_receives_keys_and_payloads(make_ctx, free_port, zpee
             "vessel/v1/meas/position/gnss1": {
                 "t": T0 + 0.2, "t_src": None, "source": "gnss1", "lat": 60.1, "lon": 24.9, "fix_quality": 1
             },
-            "vessel/v1/est/stw": {"t": T0 + 0.2, "stw": 5.1, "stw_std": 0.1, "dvl_stw": None},
+            "vessel/v1/est/stw": {
+                "t": T0 + 0.2, "kind": "stw", "stale": False, "age": 0.0, "stw": 5.1, "stw_std": 0.1, "dvl_stw": None
+            },
             # Any estimate name is published as it appears; NaN (no JSON form) as null.
-            "vessel/v1/est/some_future_estimator": {"t": T0 + 0.2, "a": [1, 2], "b": {"c": None}},
+            "vessel/v1/est/some_future_estimator": {
+                "t": T0 + 0.2, "kind": None, "stale": False, "age": 0.0, "a": [1, 2], "b": {"c": None}
+            },
             "vessel/v1/health": {"t": T0 + 0.3, "outputs": {"zenoh": {"state": "running"}}},
         }
 
