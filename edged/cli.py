@@ -81,6 +81,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("recover", help="make an unfinished recording valid again")
     p.add_argument("file", metavar="FILE.mcap")
 
+    p = sub.add_parser("score", help="estimates of a recording against truth: RMSE, bias, σ coverage")
+    p.add_argument("file", metavar="FILE.mcap")
+    p.add_argument("--truth", required=True, metavar="truth.csv", help="truth table (the simulator's truth.csv columns)")
+    p.add_argument("--warmup", type=float, default=60.0, metavar="S", help="seconds after the first estimate left out (default 60)")
+    p.add_argument("--estimate", action="append", metavar="NAME", help="only these estimates (est/NAME); repeatable")
+    p.add_argument("--json", action="store_true", help="the figures as JSON instead of a table")
+
     p = sub.add_parser("router", help="a zenoh router for a ship or a small shore site")
     p.add_argument("--zenoh-config", metavar="FILE.json5")
 
