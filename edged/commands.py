@@ -199,7 +199,7 @@ def print_summary(rt: Runtime, stats: ReplayStats, out: TextIO) -> None:
         print(f"records without a decoder ({proto}): {v}", file=out)
     for w in rt.workers:
         print(f"estimator {w.name}: {w.health.counters.get('estimates', 0)} estimates, "
-              f"{w.sub.late} late, {w.health.counters.get('errors', 0)} errors", file=out)
+              f"{w.health.counters.get('late', 0)} late, {w.health.counters.get('errors', 0)} errors", file=out)
     for o in rt.outputs:
         state = o.health.state
         err = f" ({o.health.last_error})" if o.health.last_error else ""

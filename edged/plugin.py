@@ -23,9 +23,9 @@ import argparse
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Protocol, runtime_checkable
+from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Literal, Protocol, runtime_checkable
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
 from .clock import Clock
 from .health import ComponentHealth
@@ -62,12 +62,30 @@ class InputConfig(PluginConfig):
 
 
 class EstimatorConfig(PluginConfig):
-    queue_size: int = 10_000
+    """What every estimator instance can be told, whatever its filter (DESIGN §2, §6)."""
+
+    #: Records queued for the worker before new ones are dropped (counted `overflow`).
+    queue_size: int = Field(10_000, ge=1, le=10_000_000)
     #: Measurements up to this many seconds older than the newest are re-ordered
     #: before the core sees them; older ones are late (counted, dropped).
-    reorder_window: float = 0.0
+    reorder_window: float = Field(0.0, ge=0.0, le=3600.0)
     #: Only measurements from these sources (default: all, with source priority).
     sources: list[str] | None = None
+    #: See only the source priority's winner of a kind (false: every source of it, for
+    #: an estimator that fuses two receivers of the same kind).
+    preferred_only: bool = True
+    #: Where the core runs: in the event loop, or in a process of its own (a heavy
+    #: filter then never takes the loop from the inputs).
+    worker: Literal["loop", "process"] = "loop"
+    #: Publish at most this many estimates per second of data time (the newest since
+    #: the previous tick of the grid k/publish_rate); 0 publishes every estimate.
+    publish_rate: float = Field(0.0, ge=0.0, le=1000.0)
+    #: Seconds of data time without any input after which the estimate is published
+    #: again with `stale: true` (and its `age`) at every tick; 0 never marks it stale.
+    stale_after: float = Field(5.0, ge=0.0, le=86_400.0)
+    #: Process worker: seconds a batch may take before the core is declared hung,
+    #: killed and restarted.
+    watchdog: float = Field(10.0, gt=0.0, le=3600.0)
 
 
 class OutputConfig(PluginConfig):
@@ -183,9 +201,25 @@ class InputPlugin(Plugin):
 
 
 class EstimatorCore(Protocol):
-    """A synchronous estimator: the same stamped inputs give the same estimates."""
+    """A synchronous estimator: the same stamped inputs give the same estimates.
 
-    #: Route keys it consumes: measurement kinds and/or `est/<name>`.
+    The worker host (`edged.workers`) feeds it its inputs in data-time order, one
+    record at a time, in the event loop or in a process of its own; it never reads a
+    clock. Optional methods the host calls when a core has them:
+
+    - `tick(t) -> list[Estimate]`: at each tick of the data-time grid k/publish_rate
+      (a core that computes its output only when it is published, e.g. a 600 Hz
+      draft filter published at 1 Hz);
+    - `health() -> dict`: filter health for the component's `info` (innovation
+      statistics per measurement kind from `edged.innovation.InnovationMonitor`,
+      resets and their reason), read at every health snapshot.
+
+    The estimates it returns need only `t` and `values`: the host sets their name
+    (the instance's table name), kind and source, and adds `stale` and `age`.
+    """
+
+    #: Route keys it consumes: measurement kinds and/or `est/<name>` of the estimator
+    #: instances its configuration names.
     inputs: frozenset[str]
 
     def step(self, rec: Measurement | Estimate) -> list[Estimate]: ...
@@ -193,9 +227,14 @@ class EstimatorCore(Protocol):
 
 class EstimatorPlugin(Plugin):
     Config: ClassVar[type[PluginConfig]] = EstimatorConfig
+    #: The estimate kind (`edged.estimates.ESTIMATE_KINDS`) its estimates are, which
+    #: says their fields; None for a kind this version does not define.
+    kind: ClassVar[str | None] = None
 
     def make_core(self) -> EstimatorCore:
-        """A fresh core; called at start and after every failure."""
+        """A fresh core; called at start and after every failure (in the worker's
+        process when it runs in one: the core need not be picklable, the plugin's
+        class and configuration must be)."""
         raise NotImplementedError
 
 

@@ -226,8 +226,7 @@ class Replayer:
                     await self._yield()
             stats.records = n
             stats.t_last = clock.now() if t0 is not None else None
-            for w in rt.workers:
-                w.flush()
+            await rt.finish_workers()
             snap = rt.health_snapshot()
             publish(HealthRecord(snap["t"], snap))
             await self._yield(final=True)
@@ -238,12 +237,20 @@ class Replayer:
         return stats
 
     async def _yield(self, final: bool = False) -> None:
-        """Let the outputs work; wait while their queues are more than half full."""
+        """Let the workers and outputs work; wait while their queues are more than
+        half full (a replay never drops what a live daemon would have kept)."""
         if self.progress is not None:
             self.progress(sum(s.count for s in self._streams), self.total_bytes)
         await asyncio.sleep(0)
-        limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in self.rt.outputs), default=0)
-        while self.rt.outputs and self.rt.output_backlog() > limit:
+        rt = self.rt
+        wlimit = min((w.sub.queue.maxsize // 2 for w in rt.workers), default=0)
+        spins = 0
+        while rt.workers and rt.worker_backlog() > wlimit:
+            # A worker in its own process answers in its own time: poll gently.
+            spins += 1
+            await asyncio.sleep(0 if spins < 64 else 0.0005)
+        limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in rt.outputs), default=0)
+        while rt.outputs and rt.output_backlog() > limit:
             await asyncio.sleep(0)
 
 

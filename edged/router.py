@@ -17,7 +17,7 @@ import asyncio
 import logging
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable
+from typing import Any, Iterable
 
 from .health import ComponentHealth
 
@@ -97,8 +97,9 @@ class Subscription:
     sources: frozenset[str] | None = None
     preferred_only: bool = True
     reorder_window: float | None = None
-    #: Called in the publisher's stack instead of queueing (replay: deterministic order).
-    handler: Callable[[Any], None] | None = None
+    #: Queue `(seq, record)` pairs instead of records (estimator workers: the sequence
+    #: number is what orders a worker's inputs the same way live and in replay).
+    sequenced: bool = False
     newest_t: float = field(default=float("-inf"))
     overflow: int = 0
     late: int = 0
@@ -153,6 +154,11 @@ class Router:
         self.priorities: dict[str, SourcePriority] = {}
         self.published = 0
         self.suppressed = 0
+        #: Sequence number of the newest record published: every record gets the next
+        #: one, except an estimate, which carries the number of the record it was made
+        #: from (`cause`). Every record numbered up to `seq` is in its subscribers'
+        #: queues: publish() is synchronous.
+        self.seq = 0
 
     def set_priority(self, kind: str, sources: list[str], timeout: float) -> None:
         self.priorities[kind] = SourcePriority(kind, sources, timeout)
@@ -168,7 +174,7 @@ class Router:
         sources: Iterable[str] | None = None,
         preferred_only: bool = True,
         reorder_window: float | None = None,
-        handler: Callable[[Any], None] | None = None,
+        sequenced: bool = False,
     ) -> Subscription:
         sub = Subscription(
             name=name,
@@ -179,7 +185,7 @@ class Router:
             sources=None if sources is None else frozenset(sources),
             preferred_only=preferred_only,
             reorder_window=reorder_window,
-            handler=handler,
+            sequenced=sequenced,
         )
         self._subs.append(sub)
         self._by_key.clear()
@@ -197,9 +203,15 @@ class Router:
             self._by_key[key] = t
         return t
 
-    def publish(self, rec: Any) -> None:
-        """Deliver `rec` to every matching subscriber's queue; never waits."""
+    def publish(self, rec: Any, cause: int | None = None) -> None:
+        """Deliver `rec` to every matching subscriber's queue; never waits.
+
+        `cause`: for an estimate, the sequence number of the record it was made from.
+        """
         self.published += 1
+        if cause is None:
+            self.seq += 1
+            cause = self.seq
         key = rec.route_key
         targets = self._by_key.get(key)
         if targets is None:
@@ -227,9 +239,7 @@ class Router:
                     continue
                 if t > sub.newest_t:
                     sub.newest_t = t
-            if sub.handler is not None:
-                sub.handler(rec)
-            elif not sub.queue.put(rec):
+            if not sub.queue.put((cause, rec) if sub.sequenced else rec):
                 sub.overflow += 1
                 if sub.health is not None:
                     sub.health.count("overflow")

@@ -5,33 +5,28 @@ is restarted with backoff and reported in health while the others keep running.
 Shutdown (SIGTERM/SIGINT) stops the inputs first, lets workers and outputs take what
 is still queued, then flushes and closes the outputs within `shutdown_timeout`.
 
-In replay the estimator workers run inline (in the publisher's stack) rather than
-behind queues, so that estimates feeding other estimators (STW into draft) arrive in
-the same order at any replay speed: the same log gives the same output, bit for bit.
+Estimator workers (`edged.workers`) run the same way live and in replay: behind
+their queues, each in the event loop or in a process of its own, their inputs put into
+one order that depends only on the data, so that estimates feeding other estimators
+(STW into draft) arrive in the same order at any replay speed: the same log gives the
+same output, bit for bit.
 """
 
 from __future__ import annotations
 
 import asyncio
-import heapq
-import itertools
 import logging
 from typing import Any
 
 from .clock import Clock
 from .config import Config, ConfigError
 from .health import ComponentHealth, HealthRegistry
-from .plugin import (
-    EstimatorCore,
-    EstimatorPlugin,
-    InputPlugin,
-    OutputPlugin,
-    PluginContext,
-)
+from .plugin import InputPlugin, OutputPlugin, PluginContext
 from .records import HealthRecord
 from .registry import Registry
-from .router import Router, Subscription
+from .router import Router
 from .supervisor import RestartPolicy, Sleep, supervise
+from .workers import WorkerHost
 
 log = logging.getLogger("edged.runtime")
 
@@ -48,92 +43,6 @@ class InputHost:
 
     async def run(self) -> None:
         await self.plugin.run()
-
-
-class WorkerHost:
-    """Hosts one estimator core: feeds it in time order, restarts it when it fails."""
-
-    def __init__(
-        self,
-        name: str,
-        plugin: EstimatorPlugin,
-        router: Router,
-        health: ComponentHealth,
-        *,
-        inline: bool,
-    ) -> None:
-        self.name = name
-        self.plugin = plugin
-        self.router = router
-        self.health = health
-        self.inline = inline
-        cfg = plugin.config
-        self.window: float = float(getattr(cfg, "reorder_window", 0.0))
-        self.core: EstimatorCore = plugin.make_core()
-        self._heap: list[tuple[float, int, Any]] = []
-        self._seq = itertools.count()
-        self._newest = float("-inf")
-        sources = getattr(cfg, "sources", None)
-        self.sub: Subscription = router.subscribe(
-            f"estimator:{name}",
-            self.core.inputs,
-            maxsize=int(getattr(cfg, "queue_size", 10_000)),
-            health=health,
-            sources=sources,
-            preferred_only=True,
-            reorder_window=self.window,
-            handler=self._feed_inline if inline else None,
-        )
-        if inline:
-            health.set_state("running")
-
-    def _step(self, rec: Any) -> None:
-        estimates = self.core.step(rec)
-        self.health.count("steps")
-        for e in estimates:
-            self.health.count("estimates")
-            self.router.publish(e)
-
-    def feed(self, rec: Any) -> None:
-        """Pass `rec` on in time order (buffered within the reorder window)."""
-        if self.window <= 0.0:
-            self._step(rec)
-            return
-        heapq.heappush(self._heap, (rec.t, next(self._seq), rec))
-        if rec.t > self._newest:
-            self._newest = rec.t
-        horizon = self._newest - self.window
-        heap = self._heap
-        while heap and heap[0][0] <= horizon:
-            self._step(heapq.heappop(heap)[2])
-
-    def flush(self) -> None:
-        """Release what the reorder window still holds (shutdown, end of replay)."""
-        while self._heap:
-            self._step(heapq.heappop(self._heap)[2])
-
-    def _feed_inline(self, rec: Any) -> None:
-        try:
-            self.feed(rec)
-        except Exception as exc:  # isolate: a failing core must not stop the replay
-            self.health.error(f"{type(exc).__name__}: {exc}")
-            self.health.restarts += 1
-            self.restart()
-
-    def restart(self) -> None:
-        self.core = self.plugin.make_core()
-        self._heap.clear()
-
-    async def run(self) -> None:
-        get = self.sub.queue.get_batch
-        while True:
-            for rec in await get():
-                self.feed(rec)
-
-    def drain(self) -> None:
-        for rec in self.sub.queue.drain_nowait():
-            self.feed(rec)
-        self.flush()
 
 
 class OutputHost:
@@ -262,19 +171,62 @@ class Runtime:
             if c.enabled:
                 plugin, health, _ = self._make("outputs", name, c)
                 self.outputs.append(OutputHost(name, plugin, self.router, health))
+        hosts: dict[str, WorkerHost] = {}
         for name, c in cfg.estimators.items():
             if c.enabled:
                 plugin, health, _ = self._make("estimators", name, c)
                 try:
-                    host = WorkerHost(name, plugin, self.router, health, inline=self.replay)
+                    hosts[name] = WorkerHost(name, plugin, self.router, health)
                 except Exception as exc:
                     raise PluginBuildError(f"estimators.{name}: {type(exc).__name__}: {exc}") from exc
-                self.workers.append(host)
+        self.workers = self._link_workers(hosts)
         if not self.replay:
             for name, c in cfg.inputs.items():
                 if c.enabled:
                     plugin, health, _ = self._make("inputs", name, c)
                     self.inputs.append(InputHost(name, plugin, health))
+
+    def _link_workers(self, hosts: dict[str, WorkerHost]) -> list[WorkerHost]:
+        """The workers in topological order (an estimator after those it consumes),
+        each linked to its upstream; a consumed estimate no instance makes, or a cycle,
+        is a configuration error naming the table."""
+        deps: dict[str, list[str]] = {}
+        for name, host in hosts.items():
+            deps[name] = []
+            for key in sorted(host.inputs):
+                if not key.startswith("est/"):
+                    continue
+                up = key[4:]
+                if up in hosts:
+                    deps[name].append(up)
+                elif up in self.config.estimators:
+                    log.warning("event=input-disabled estimator=%s consumes=%s reason='that estimator is disabled'", name, key)
+                else:
+                    known = ", ".join(n for n in hosts if n != name) or "none"
+                    self._config_errors.append(
+                        (f"estimators.{name}", f"consumes {key}, but no estimator instance is named {up!r} (configured: {known})")
+                    )
+        order: list[str] = []
+        state: dict[str, int] = {}  # 1 visiting, 2 done
+
+        def visit(n: str, path: list[str]) -> None:
+            if state.get(n) == 2:
+                return
+            if state.get(n) == 1:
+                cycle = " -> ".join(path[path.index(n):] + [n])
+                self._config_errors.append((f"estimators.{n}", f"estimators consume each other in a cycle: {cycle}"))
+                return
+            state[n] = 1
+            for d in deps[n]:
+                visit(d, path + [n])
+            state[n] = 2
+            order.append(n)
+
+        for n in hosts:
+            visit(n, [])
+        for rank, n in enumerate(order):
+            hosts[n].link([hosts[d] for d in deps[n]], rank)
+        return [hosts[n] for n in order]
 
     # -- lifecycle ------------------------------------------------------------
     def _spawn(self, coro: Any, name: str) -> None:
@@ -291,16 +243,16 @@ class Runtime:
                 supervise(out.run, out.health, self.clock, policy=self.restart, sleep=self.sleep, on_restart=_cleanup),
                 f"output:{out.name}",
             )
+        # Workers run behind their queues live and in replay alike. A replay restarts a
+        # failed core at once: its backoff would only stall the data, not spare a peer.
+        worker_sleep = _no_wait if self.replay else self.sleep
+        for w in self.workers:
+            self._spawn(
+                supervise(w.run, w.health, self.clock, policy=self.restart, sleep=worker_sleep, on_restart=w.on_restart),
+                f"estimator:{w.name}",
+            )
+            w.task = self._tasks[-1]
         if not self.replay:
-            for w in self.workers:
-
-                async def _restart(wh: WorkerHost = w) -> None:
-                    wh.restart()
-
-                self._spawn(
-                    supervise(w.run, w.health, self.clock, policy=self.restart, sleep=self.sleep, on_restart=_restart),
-                    f"estimator:{w.name}",
-                )
             for i in self.inputs:
                 self._spawn(
                     supervise(i.run, i.health, self.clock, policy=self.restart, sleep=self.sleep),
@@ -330,10 +282,19 @@ class Runtime:
                 out.flush()
 
     def health_snapshot(self) -> dict[str, Any]:
-        for host in self.outputs:
-            extra = host.plugin.status()
+        for host in (*self.inputs, *self.outputs):
+            try:
+                extra = host.plugin.status()
+            except Exception as exc:  # a plugin's report must not stop the snapshot
+                host.health.error(f"status: {type(exc).__name__}: {exc}")
+                continue
             if extra:
                 host.health.info.update(extra)
+        for w in self.workers:
+            try:
+                w.report()
+            except Exception as exc:
+                w.health.error(f"status: {type(exc).__name__}: {exc}")
         self.health.component("router", "core").info.update(self.router.stats())
         snap = self.health.snapshot()
         snap["vessel_id"] = self.config.edged.vessel_id
@@ -357,13 +318,8 @@ class Runtime:
         await self._cancel(input_tasks)
         for i in self.inputs:
             i.health.set_state("stopped")
-        worker_tasks = [t for t in other if t.get_name().startswith("estimator:")]
-        await self._cancel(worker_tasks)
+        await self.finish_workers()
         for w in self.workers:
-            try:
-                w.drain()
-            except Exception as exc:
-                w.health.error(f"drain: {type(exc).__name__}: {exc}")
             w.health.set_state("stopped")
         output_tasks = [t for t in other if t.get_name().startswith("output:")]
         await self._cancel(output_tasks)
@@ -375,6 +331,17 @@ class Runtime:
                 out.health.error(f"close: {type(exc).__name__}: {exc}")
             out.health.set_state("stopped")
         self._tasks.clear()
+
+    async def finish_workers(self) -> None:
+        """Let every worker step what is queued for it and release its reorder window,
+        upstream before downstream, each within `shutdown_timeout`."""
+        timeout = self.config.edged.shutdown_timeout
+        for w in self.workers:
+            await w.finish(timeout)
+
+    def worker_backlog(self) -> int:
+        """Largest queue of a worker: replay waits on it instead of dropping."""
+        return max((len(w.sub.queue) for w in self.workers), default=0)
 
     async def _cancel(self, tasks: list[asyncio.Task[None]]) -> None:
         """Cancel and wait, bounded: a plugin that ignores cancellation is left behind."""
@@ -390,3 +357,7 @@ class Runtime:
         """Largest queue of a running output: replay waits on it instead of dropping."""
         return max((len(o.sub.queue) for o in self.outputs if o.opened), default=0)
 
+
+
+async def _no_wait(delay: float) -> None:
+    await asyncio.sleep(0)

@@ -220,10 +220,9 @@ async def test_reorder_window_restores_time_order(registry):
     await rt.start()
     for t in (1.0, 3.0, 2.5, 2.2, 0.5, 4.0, 5.0):
         rt.router.publish(Measurement("yaw_rate", "g", t, {"r": 1.0}))
-    rt.workers[0].flush()
-    await rt.stop()
+    await rt.stop()  # finishing a worker releases what its window still holds
     assert SumEstimator.cores[0].seen == [1.0, 2.2, 2.5, 3.0, 4.0, 5.0]
-    assert rt.workers[0].sub.late == 1
+    assert rt.workers[0].health.counters["late"] == 1
 
 
 async def test_stop_is_bounded_when_a_plugin_ignores_cancellation(registry):

@@ -1,0 +1,103 @@
+"""Innovation statistics of a Kalman filter, the way health reports them (DESIGN §6).
+
+A consistent filter's normalised innovation squared (NIS, ν'S⁻¹ν) follows a χ²
+distribution with as many degrees of freedom as the measurement has components: its
+mean is the dof and 95 % of the values lie inside the two-sided χ² 95 % band. A filter
+whose NIS mean drifts away from the dof, or whose share inside the band falls well
+below 95 %, is mistuned or diverging (seed 002 monitors exactly this). Every estimator
+keeps one `InnovationMonitor`, records each update, gate rejection and reset in it, and
+returns `snapshot()` from its core's `health()`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from functools import cache
+from typing import Any
+
+__all__ = ["InnovationMonitor", "chi2_band"]
+
+
+@cache
+def chi2_band(dof: int, coverage: float = 0.95) -> tuple[float, float]:
+    """The two-sided χ² interval holding `coverage` of a dof-degree χ² variable."""
+    from scipy.stats import chi2  # scipy comes with filterpy; imported when first needed
+
+    tail = (1.0 - coverage) / 2.0
+    return float(chi2.ppf(tail, dof)), float(chi2.ppf(1.0 - tail, dof))
+
+
+@dataclass
+class _KindStats:
+    window: int
+    dof: int = 1
+    nis: deque[float] = field(default_factory=deque)
+    inside: deque[bool] = field(default_factory=deque)
+    updates: int = 0
+    gated: int = 0
+
+    def add(self, nis: float, dof: int) -> None:
+        if dof != self.dof:  # a kind whose measurement size changed: start again
+            self.dof = dof
+            self.nis.clear()
+            self.inside.clear()
+        lo, hi = chi2_band(dof)
+        self.nis.append(nis)
+        self.inside.append(lo <= nis <= hi)
+        if len(self.nis) > self.window:
+            self.nis.popleft()
+            self.inside.popleft()
+        self.updates += 1
+
+
+class InnovationMonitor:
+    """NIS per measurement kind over the last `window` updates, gate rejections, resets."""
+
+    def __init__(self, window: int = 100) -> None:
+        if window < 1:
+            raise ValueError("window must be >= 1")
+        self.window = window
+        self._kinds: dict[str, _KindStats] = {}
+        self.resets = 0
+        self.last_reset: str | None = None
+        self.last_reset_t: float | None = None
+
+    def _stats(self, kind: str) -> _KindStats:
+        s = self._kinds.get(kind)
+        if s is None:
+            s = self._kinds[kind] = _KindStats(self.window)
+        return s
+
+    def update(self, kind: str, nis: float, dof: int) -> None:
+        """An accepted update of `kind` with its NIS and measurement dimension."""
+        self._stats(kind).add(float(nis), int(dof))
+
+    def gated(self, kind: str) -> None:
+        """A measurement of `kind` the innovation gate rejected."""
+        self._stats(kind).gated += 1
+
+    def reset(self, reason: str, t: float | None = None) -> None:
+        """The filter was reinitialised (divergence, a jump, a gap), and why."""
+        self.resets += 1
+        self.last_reset = reason
+        self.last_reset_t = t
+
+    def snapshot(self) -> dict[str, Any]:
+        kinds: dict[str, Any] = {}
+        for kind, s in self._kinds.items():
+            n = len(s.nis)
+            kinds[kind] = {
+                "dof": s.dof,
+                "updates": s.updates,
+                "gated": s.gated,
+                "window": n,
+                "nis_mean": (sum(s.nis) / n) if n else None,
+                "in_band_95": (sum(s.inside) / n) if n else None,
+            }
+        return {
+            "innovation": kinds,
+            "resets": self.resets,
+            "last_reset": self.last_reset,
+            "last_reset_t": self.last_reset_t,
+        }

@@ -1,0 +1,551 @@
+"""Estimator workers: one core each, fed in a deterministic order, live and in replay.
+
+Replay equals live, chained estimators included (DESIGN §2). A worker's inputs are
+measurements from the router and estimates of the workers it consumes (the draft
+worker takes `est/stw`). Live, those arrive in an order that depends on scheduling;
+the host puts them back into one order that depends only on the data:
+
+- the router numbers every record it publishes (`Router.seq`); an estimate carries
+  the number of the record it was made from (its *cause*);
+- a worker orders its inputs by (number, producer, production order): a measurement
+  first, then what its upstream workers made from it, in the configuration's
+  topological order of those workers;
+- it steps its core only up to its *bound*: the highest number below which nothing
+  can still arrive, i.e. everything the router has published and everything its
+  upstream workers have finished (their *watermark*). A worker with nothing to do is
+  finished up to its own bound, so an idle upstream never holds a downstream back.
+
+Time for cores is data time. Records carry it; health snapshots (1 Hz, published
+through the router like any record) are the beacons that move it on when no input
+arrives. Before a record of time t is stepped, every tick k/rate <= t of the worker's
+grid is fired: publication at `publish_rate` and `stale` marking come from those
+ticks, so the same log gives the same ticks at any replay speed.
+
+Placement: a `LoopRunner` calls the core in the event loop; a `ProcessRunner` sends
+batches of calls to a process of its own (`edged.workerproc`) from a helper thread, so
+the loop never waits on it. A core that raises, dies or hangs past the watchdog makes
+`run()` raise: the runtime's supervisor restarts it with backoff and reports it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import heapq
+import itertools
+import logging
+import math
+import multiprocessing
+import os
+import signal
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Iterable
+
+from .health import ComponentHealth
+from .plugin import EstimatorPlugin
+from .records import Estimate, HealthRecord
+from .router import Router
+from .workerproc import core_health, run_calls, serve
+
+__all__ = ["WorkerHost", "LoopRunner", "ProcessRunner", "CoreFailed", "MAX_CALLS", "MAX_CATCHUP_TICKS"]
+
+log = logging.getLogger("edged.workers")
+
+#: Calls sent to a core in one batch (bounds a process worker's message size and the
+#: time the pickling holds the interpreter).
+MAX_CALLS = 1024
+#: Ticks fired at once when data time jumps (a gap in a log): beyond, the grid skips
+#: to the latest tick (counted `ticks_skipped`) instead of firing hours of them.
+MAX_CATCHUP_TICKS = 1000
+#: Producer rank of router records (measurements, health): before every estimate.
+_MEASUREMENT_RANK = -1
+#: The queue item that only wakes a worker (an upstream worker finished a batch).
+_WAKE = (0, None)
+
+Call = tuple[str, Any]
+
+
+class CoreFailed(RuntimeError):
+    """A core raised, died or hung; `results` are those of the calls before it."""
+
+    def __init__(self, message: str, results: list[list[Any]]) -> None:
+        super().__init__(message)
+        self.results = results
+
+
+# -- runners: where the core runs ---------------------------------------------------
+class LoopRunner:
+    """Calls the core in the event loop."""
+
+    placement = "loop"
+
+    def __init__(self, plugin: EstimatorPlugin) -> None:
+        self.plugin = plugin
+        self.core: Any = plugin.make_core()
+        self.health_report: dict[str, Any] | None = None
+
+    async def start(self) -> None:
+        if self.core is None:
+            self.core = self.plugin.make_core()
+
+    async def call(self, calls: list[Call]) -> list[list[Any]]:
+        results: list[list[Any]] = []
+        try:
+            run_calls(self.core, calls, results)
+        except Exception as exc:
+            raise CoreFailed(f"{type(exc).__name__}: {exc}", results) from exc
+        return results
+
+    def report(self) -> dict[str, Any] | None:
+        return core_health(self.core)
+
+    async def stop(self) -> None:
+        """Forget the core: the next start() makes a fresh one."""
+        self.core = None
+
+
+class ProcessRunner:
+    """Runs the core in a process of its own; every exchange goes through one helper
+    thread, so the event loop only awaits a future."""
+
+    placement = "process"
+
+    def __init__(self, plugin: EstimatorPlugin, name: str, watchdog: float) -> None:
+        self.plugin = plugin
+        self.name = name
+        self.watchdog = watchdog
+        self.process: Any = None
+        self._conn: Any = None
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"edged-{name}")
+        self.health_report: dict[str, Any] | None = None
+        self.starts = 0
+
+    @property
+    def pid(self) -> int | None:
+        return None if self.process is None else self.process.pid
+
+    async def start(self) -> None:
+        if self.process is not None and self.process.is_alive():
+            return
+        await asyncio.get_running_loop().run_in_executor(self._pool, self._spawn)
+
+    def _spawn(self) -> None:
+        ctx = multiprocessing.get_context("spawn")
+        parent, child = ctx.Pipe(duplex=True)
+        p = ctx.Process(
+            target=serve,
+            args=(child, type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id),
+            name=f"edged-{self.name}",
+            daemon=True,
+        )
+        p.start()
+        child.close()
+        self.process, self._conn = p, parent
+        self.starts += 1
+        # Importing numpy and a filter stack may take a while on a small gateway.
+        msg = self._recv(max(self.watchdog, 60.0), "start")
+        if msg[0] != "ready":
+            self._kill()
+            raise CoreFailed(f"core did not start: {msg[2] if len(msg) > 2 else msg}", [])
+        log.info("worker=%s placement=process pid=%s", self.name, p.pid)
+
+    def _recv(self, timeout: float, what: str) -> Any:
+        conn = self._conn
+        try:
+            ready = conn.poll(timeout)
+        except (EOFError, OSError):
+            ready = True  # recv() below reports how it ended
+        if not ready:
+            self._kill()
+            raise CoreFailed(f"watchdog: no answer from the core's process within {timeout:g} s ({what}); killed", [])
+        try:
+            return conn.recv()
+        except (EOFError, OSError):
+            code = self.process.exitcode if self.process is not None else None
+            self.process.join(1.0) if self.process is not None else None
+            code = self.process.exitcode if self.process is not None else code
+            self._kill()
+            raise CoreFailed(f"the core's process died (exit code {code})", []) from None
+
+    def _exchange(self, calls: list[Call]) -> list[list[Any]]:
+        try:
+            self._conn.send(("calls", calls))
+        except (OSError, ValueError) as exc:  # BrokenPipe: the child is gone
+            self._kill()
+            raise CoreFailed(f"the core's process is gone: {exc}", []) from None
+        msg = self._recv(self.watchdog, "batch")
+        if msg[0] == "ok":
+            self.health_report = msg[2]
+            return msg[1]
+        self.health_report = msg[3] if len(msg) > 3 else None
+        raise CoreFailed(msg[2], msg[1])
+
+    async def call(self, calls: list[Call]) -> list[list[Any]]:
+        return await asyncio.get_running_loop().run_in_executor(self._pool, self._exchange, calls)
+
+    def report(self) -> dict[str, Any] | None:
+        return self.health_report
+
+    def _kill(self) -> None:
+        p, self.process = self.process, None
+        conn, self._conn = self._conn, None
+        if conn is not None:
+            try:
+                conn.close()
+            except OSError:
+                pass
+        if p is not None:
+            if p.is_alive():
+                try:
+                    os.kill(p.pid, signal.SIGKILL)
+                except (ProcessLookupError, TypeError):
+                    pass
+            p.join(5.0)
+
+    def _stop_child(self) -> None:
+        p, conn = self.process, self._conn
+        if p is None:
+            return
+        try:
+            conn.send(("stop",))
+            p.join(2.0)
+        except (OSError, ValueError):
+            pass
+        self._kill()
+
+    async def stop(self) -> None:
+        await asyncio.get_running_loop().run_in_executor(self._pool, self._stop_child)
+
+    def close(self) -> None:
+        """Last words at shutdown: the child and the helper thread go."""
+        self._stop_child()
+        self._pool.shutdown(wait=False)
+
+
+# -- the host -----------------------------------------------------------------------
+class WorkerHost:
+    """Hosts one estimator core: orders its inputs, fires its ticks, publishes its
+    estimates under the instance's name, marks them stale, reports its health."""
+
+    def __init__(
+        self,
+        name: str,
+        plugin: EstimatorPlugin,
+        router: Router,
+        health: ComponentHealth,
+    ) -> None:
+        self.name = name
+        self.plugin = plugin
+        self.router = router
+        self.health = health
+        cfg = plugin.config
+        self.kind: str | None = getattr(plugin, "kind", None)
+        self.window: float = float(getattr(cfg, "reorder_window", 0.0))
+        self.publish_rate: float = float(getattr(cfg, "publish_rate", 0.0))
+        self.stale_after: float = float(getattr(cfg, "stale_after", 0.0))
+        placement = getattr(cfg, "worker", "loop")
+        self.runner: LoopRunner | ProcessRunner
+        if placement == "process":
+            self.runner = ProcessRunner(plugin, name, float(getattr(cfg, "watchdog", 10.0)))
+            probe = plugin.make_core()  # what it consumes and whether it ticks
+        else:
+            self.runner = LoopRunner(plugin)
+            probe = self.runner.core
+        self.inputs: frozenset[str] = frozenset(probe.inputs)
+        self.ticks_core = callable(getattr(probe, "tick", None))
+        #: Other workers whose estimates this one consumes (set by the runtime).
+        self.upstream: list[WorkerHost] = []
+        self.downstream: list[WorkerHost] = []
+        #: Topological position: orders the estimates of several upstream workers.
+        self.rank = 0
+        self._ranks: dict[str, int] = {}
+        sources = getattr(cfg, "sources", None)
+        if sources is not None:  # upstream estimates and health beacons pass the filter
+            sources = set(sources) | {k[4:] for k in self.inputs if k.startswith("est/")} | {HealthRecord.source}
+        self.sub = router.subscribe(
+            f"estimator:{name}",
+            self.inputs | {HealthRecord.route_key},
+            maxsize=int(getattr(cfg, "queue_size", 10_000)),
+            health=health,
+            sources=sources,
+            preferred_only=bool(getattr(cfg, "preferred_only", True)),
+            reorder_window=None,
+            sequenced=True,
+        )
+        self.task: asyncio.Task[None] | None = None
+        # Ordering state.
+        self._pending: list[tuple[int, int, int, Any]] = []  # (seq, producer rank, n, record)
+        self._n = itertools.count()
+        self._done = 0  # watermark: everything caused by numbers <= this is published
+        self._busy = False
+        self._closing = False
+        # Data time, reorder window, ticks.
+        self._reorder: list[tuple[float, int, Any]] = []
+        self._newest = -math.inf  # newest input time admitted
+        self._stepped = -math.inf  # newest input time stepped (older inputs are late)
+        self._period = 1.0 / self.publish_rate if self.publish_rate > 0 else 1.0
+        self._ticking = self.publish_rate > 0 or self.stale_after > 0 or self.ticks_core
+        self._next_tick: float | None = None
+        # Publication state (results are applied in order, after the calls).
+        self._last_input_t: float | None = None
+        self._held: Estimate | None = None
+        self._last: Estimate | None = None
+        self._stale = False
+        self.health.info["placement"] = self.runner.placement
+        self.health.info["inputs"] = sorted(self.inputs)
+
+    # -- ordering -------------------------------------------------------------------
+    def watermark(self) -> int:
+        """Every estimate this worker will make from records numbered <= this is
+        already published."""
+        if self._busy or self._pending or len(self.sub.queue):
+            return self._done
+        return self.bound()
+
+    def bound(self) -> int:
+        """Numbers up to which this worker has all its inputs."""
+        b = self.router.seq
+        for up in self.upstream:
+            w = up.watermark()
+            if w < b:
+                b = w
+        return b
+
+    def wake(self) -> None:
+        self.sub.queue.put(_WAKE)
+
+    def link(self, upstream: list["WorkerHost"], rank: int) -> None:
+        """Set by the runtime once every worker exists: whose estimates this one
+        consumes, and its place in the topological order."""
+        self.upstream = upstream
+        self.rank = rank
+        for u in upstream:
+            u.downstream.append(self)
+        self._ranks = {f"est/{u.name}": u.rank for u in upstream}
+
+    def _take(self, items: Iterable[tuple[int, Any]]) -> None:
+        push = heapq.heappush
+        pending = self._pending
+        ranks = self._ranks
+        n = self._n
+        for seq, rec in items:
+            if rec is None:
+                continue
+            push(pending, (seq, ranks.get(rec.route_key, _MEASUREMENT_RANK) if ranks else _MEASUREMENT_RANK, next(n), rec))
+
+    def _admit(self, seq: int, rec: Any, calls: list[Call], causes: list[int]) -> None:
+        """One input in sequence order: ticks up to its time, then its step(s)."""
+        t = rec.t
+        if rec.__class__ is HealthRecord:
+            # A beacon: data time moves on. With a reorder window, only to its horizon:
+            # what is still held there is stepped first, in time order, as a later
+            # input would have released it.
+            if self.window > 0.0:
+                t -= self.window
+                while self._reorder and self._reorder[0][0] <= t:
+                    self._step_call(heapq.heappop(self._reorder)[2], seq, calls, causes)
+            self._tick_to(t, seq, calls, causes)
+            return
+        if self.window > 0.0:
+            if t < self._newest - self.window or t < self._stepped:
+                self._late()
+                return
+            heapq.heappush(self._reorder, (t, next(self._n), rec))
+            if t > self._newest:
+                self._newest = t
+            horizon = self._newest - self.window
+            while self._reorder and self._reorder[0][0] <= horizon:
+                self._step_call(heapq.heappop(self._reorder)[2], seq, calls, causes)
+            return
+        if t < self._stepped:
+            self._late()
+            return
+        self._step_call(rec, seq, calls, causes)
+
+    def _late(self) -> None:
+        self.health.count("late")
+
+    def _step_call(self, rec: Any, seq: int, calls: list[Call], causes: list[int]) -> None:
+        self._tick_to(rec.t, seq, calls, causes)
+        if rec.t > self._stepped:
+            self._stepped = rec.t
+        calls.append(("step", rec))
+        causes.append(seq)
+
+    def _tick_to(self, t: float, seq: int, calls: list[Call], causes: list[int]) -> None:
+        if not self._ticking or not math.isfinite(t):
+            return
+        nxt = self._next_tick
+        period = self._period
+        if nxt is None:  # the grid is absolute: k·period in data time
+            self._next_tick = (math.floor(t / period) + 1) * period
+            return
+        if nxt > t:
+            return
+        n = math.floor((t - nxt) / period) + 1
+        if n > MAX_CATCHUP_TICKS:
+            self.health.count("ticks_skipped", n - 1)
+            nxt += (n - 1) * period
+            n = 1
+        for _ in range(n):
+            calls.append(("tick", nxt))
+            causes.append(seq)
+            nxt += period
+        self._next_tick = nxt
+
+    def _flush_reorder(self, seq: int, calls: list[Call], causes: list[int]) -> None:
+        while self._reorder:
+            self._step_call(heapq.heappop(self._reorder)[2], seq, calls, causes)
+
+    # -- publication ----------------------------------------------------------------
+    def _stamp(self, e: Estimate, age: float, stale: bool) -> Estimate:
+        values = dict(e.values)
+        values["stale"] = stale
+        values["age"] = age
+        return Estimate(self.name, self.name, e.t, values, self.kind)
+
+    def _publish(self, e: Estimate, cause: int) -> None:
+        self.health.count("estimates")
+        self.router.publish(e, cause)
+
+    def _apply(self, calls: list[Call], results: list[list[Any]], causes: list[int]) -> None:
+        """What the core returned, in call order: published, held or marked stale."""
+        decimate = self.publish_rate > 0
+        for (what, arg), out, cause in zip(calls, results, causes):
+            if what == "step":
+                self.health.count("steps")
+                if self._last_input_t is None or arg.t > self._last_input_t:
+                    self._last_input_t = arg.t
+                if self._stale:
+                    self._stale = False
+                    self.health.set_state("running", "inputs back")
+                for e in out:
+                    e = self._stamp(e, max(0.0, e.t - self._last_input_t), False)
+                    self._last = e
+                    if decimate:
+                        self._held = e
+                    else:
+                        self._publish(e, cause)
+                continue
+            # A tick of the data-time grid at `arg`.
+            for e in out:
+                age = 0.0 if self._last_input_t is None else max(0.0, arg - self._last_input_t)
+                e = self._stamp(e, age, False)
+                self._last = e
+                self._publish(e, cause)
+            if self._held is not None:
+                self._publish(self._held, cause)
+                self._held = None
+            last_in = self._last_input_t
+            if self.stale_after > 0 and last_in is not None and arg - last_in > self.stale_after:
+                if not self._stale:
+                    self._stale = True
+                    self.health.set_state("stale", f"no input for {arg - last_in:.1f} s of data")
+                    self.health.count("stale_periods")
+                last = self._last
+                if last is not None:
+                    values = dict(last.values)
+                    values["stale"] = True
+                    values["age"] = arg - last_in
+                    self._publish(Estimate(self.name, self.name, arg, values, self.kind), cause)
+            self.health.info["age"] = None if last_in is None else max(0.0, arg - last_in)
+
+    # -- the worker's life ----------------------------------------------------------
+    async def _work(self, items: list[tuple[int, Any]], final: bool = False) -> None:
+        self._take(items)
+        bound = self.bound()
+        calls: list[Call] = []
+        causes: list[int] = []
+        pending = self._pending
+        pop = heapq.heappop
+        while pending and pending[0][0] <= bound and len(calls) < MAX_CALLS:
+            seq, _, _, rec = pop(pending)
+            self._admit(seq, rec, calls, causes)
+        more = bool(pending) and pending[0][0] <= bound
+        if final and not more:
+            self._flush_reorder(bound, calls, causes)
+        if calls:
+            self._busy = True
+            try:
+                try:
+                    results = await self.runner.call(calls)
+                except CoreFailed as exc:
+                    self._apply(calls[: len(exc.results)], exc.results, causes)
+                    lost = sum(1 for what, _ in calls[len(exc.results) + 1 :] if what == "step")
+                    if lost:
+                        self.health.count("dropped.core_failure", lost)
+                    raise
+                self._apply(calls, results, causes)
+            finally:
+                self._busy = False
+        if not more:
+            self._done = bound
+        else:
+            self.wake()  # the rest of what is ready, in the next batch
+        for d in self.downstream:
+            d.wake()
+
+    async def run(self) -> None:
+        """Feed the core until cancelled or, after `finish()`, until all is done."""
+        self.health.set_state("starting")
+        await self.runner.start()
+        self.health.set_state("running")
+        get = self.sub.queue.get_batch
+        queue = self.sub.queue
+        while True:
+            if self._closing and not len(queue):
+                if self._pending and self._pending[0][0] > self.bound():
+                    await get()  # an upstream worker is still finishing
+                    continue
+                await self._work([], final=True)
+                if not self._pending and not len(queue):
+                    return
+                continue
+            await self._work(await get())
+
+    def restart(self) -> None:
+        """After a failure: a fresh core next time `run()` starts (inputs kept)."""
+        self._held = None
+        if self._reorder:  # held for the old core's time order: counted, not replayed
+            self.health.count("dropped.core_failure", len(self._reorder))
+            self._reorder.clear()
+
+    async def on_restart(self) -> None:
+        self.restart()
+        await self.runner.stop()
+
+    async def finish(self, timeout: float) -> None:
+        """Step everything queued, release the reorder window, stop the core."""
+        self._closing = True
+        self.wake()
+        task = self.task
+        if task is not None and not task.done():
+            if self.health.state == "backoff":
+                task.cancel()  # waiting to restart: nothing will step it again
+            done, _ = await asyncio.wait([task], timeout=timeout)
+            if not done:
+                task.cancel()
+                log.error("event=stop-timeout worker=%s reason='did not finish within %g s'", self.name, timeout)
+                await asyncio.wait([task], timeout=1.0)
+        rest = len(self.sub.queue) + len(self._pending) + len(self._reorder)
+        if rest:
+            self.health.count("dropped.shutdown", rest)
+        try:
+            await self.runner.stop()
+        except Exception as exc:
+            self.health.error(f"stop: {type(exc).__name__}: {exc}")
+        if isinstance(self.runner, ProcessRunner):
+            self.runner.close()
+
+    def report(self) -> None:
+        """Health snapshot time: the core's own report and the plugin's status."""
+        info = self.health.info
+        core = self.runner.report()
+        if core:
+            info["filter"] = core
+        extra = self.plugin.status()
+        if extra:
+            info.update(extra)
+        info["stale"] = self._stale
+        info["queue"] = len(self.sub.queue)
+        if isinstance(self.runner, ProcessRunner):
+            info["pid"] = self.runner.pid
