@@ -2,8 +2,9 @@
 
 A session opens the bus, pumps frames into the event loop (python-can's Notifier and
 AsyncBufferedReader), and ends on a bus error, a bus-off error frame, or silence longer
-than the watchdog; the caller then reopens with exponential backoff. A gateway's
-`can0` that went down when the NMEA 2000 backbone lost power comes back by itself.
+than the watchdog (`SessionEnded`, a `LinkLost`); the caller's `edged.link.Link` then
+reopens with exponential backoff. A gateway's `can0` that went down when the NMEA 2000
+backbone lost power comes back by itself.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any, Awaitable, Callable
 import can
 
 from edged.health import ComponentHealth
+from edged.link import LinkLost, LinkState
 
 #: SocketCAN error classes in an error frame's identifier (linux/can/error.h).
 CAN_ERR_CRTL = 0x00000004
@@ -23,8 +25,8 @@ CAN_ERR_RESTARTED = 0x00000100
 Sleep = Callable[[float], Awaitable[Any]]
 
 
-class SessionEnded(Exception):
-    """Why a bus session ended; the message goes to health."""
+class SessionEnded(LinkLost):
+    """Why a bus session ended (the link's reason); the message goes to health."""
 
 
 class _ErrorListener(can.Listener):
@@ -64,8 +66,7 @@ async def pump(
                 if errors.failed.done():
                     health.count("bus.errors")
                     raise SessionEnded(f"bus error: {errors.failed.result()}")
-                health.count("bus.watchdog")
-                raise SessionEnded(f"no frame for {watchdog:g} s")
+                raise SessionEnded(f"no frame for {watchdog:g} s", state=LinkState.STALE)
             _deliver(get.result(), on_frame, health)
             buffer = reader.buffer
             while not buffer.empty():
@@ -90,8 +91,7 @@ def _error_frame(msg: can.Message, health: ComponentHealth) -> None:
     health.count("bus.error_frames")
     cls = msg.arbitration_id
     if cls & CAN_ERR_BUSOFF:
-        health.count("bus.bus_off")
-        health.set_state("bus_off")
+        health.count("bus.bus_off")  # a reason of `disconnected`, not a state of its own
         raise SessionEnded("bus-off")
     if cls & CAN_ERR_CRTL:
         health.error(f"CAN controller problem (error frame data {bytes(msg.data).hex()})")

@@ -6,6 +6,7 @@ import asyncio
 from typing import TYPE_CHECKING, Any, BinaryIO, Callable, ClassVar, Iterator
 
 from edged.health import ComponentHealth
+from edged.link import Link, LinkLost
 from edged.plugin import InputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
 
@@ -47,37 +48,41 @@ class CanInput(InputPlugin):
         self._session_frames = 0
 
     async def run(self) -> None:
-        from .bus import SessionEnded, pump
+        """Keep the bus open (`edged.link`): `connected` while frames can flow; a bus
+        error, a bus-off or silence longer than the watchdog ends the session and the
+        bus is reopened after the backoff (`stale` first for the watchdog)."""
+        from .bus import pump
 
         cfg: CanConfig = self.config
         health = self.ctx.health
-        open_errors = _open_errors()
-        backoff = cfg.backoff()
-        while True:
-            health.set_state("connecting")
-            try:
-                bus = self.open_bus(interface=cfg.interface, channel=cfg.channel, bitrate=cfg.bitrate)
-            except open_errors as exc:
-                health.count("bus.open_failed")
-                health.error(f"cannot open {cfg.interface} bus {cfg.channel!r}: {exc}")
-                health.set_state("reconnecting")
-                await self.sleep(backoff.next_delay())
-                continue
+        link: Link[can.BusABC] = Link(
+            health,
+            cfg.backoff(),
+            where=f"{cfg.interface} bus {cfg.channel!r}",
+            sleep=self.sleep,
+            open_errors=_open_errors(),
+            link_errors=(),  # the pump turns every bus failure into a LinkLost
+        )
+
+        async def open_bus() -> can.BusABC:
+            return self.open_bus(interface=cfg.interface, channel=cfg.channel, bitrate=cfg.bitrate)
+
+        async def session(bus: can.BusABC) -> None:
             self.sessions += 1
             self._session_frames = 0
-            health.set_state("running")
             try:
                 await pump(bus, self._on_frame, health, cfg.watchdog)
-            except SessionEnded as exc:
+            except LinkLost as exc:
                 health.error(f"{cfg.channel}: {exc}; reopening")
+                raise
             finally:
-                bus.shutdown()
-            health.count("bus.reopen")
-            if self._session_frames:
-                backoff.reset()
-            if health.state != "bus_off":
-                health.set_state("reconnecting")
-            await self.sleep(backoff.next_delay())
+                if self._session_frames:
+                    link.stable()  # frames had flowed: the backoff starts over
+
+        async def shutdown(bus: can.BusABC) -> None:
+            bus.shutdown()
+
+        await link.run(open_bus, session, shutdown)
 
     def _on_frame(self, msg: can.Message) -> None:
         self._session_frames += 1

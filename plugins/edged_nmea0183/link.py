@@ -1,25 +1,27 @@
-"""Keeps a live transport open: watchdog, reconnect with exponential backoff, health.
+"""Keeps a live transport open: the watchdog of its reads on the core's reconnect loop.
 
-States (ComponentHealth.set_state): `connecting` -> `connected` -> (`stale` when the
-watchdog fires | `disconnected` when the peer goes away) -> `connecting` ...; a regular
-file that ends is `finished`. Counters: `bytes`, `connects`, `connect_failures`,
-`disconnects`, `watchdog`.
+States and counters are those of every edged link (`edged.link`): `connecting` ->
+`connected` -> (`stale` when the watchdog fires) -> `disconnected` (also when the peer
+goes away or the open fails) -> `connecting` ...; a regular file that ends is
+`finished`. Counters: `connects`, `connect_failures`, `disconnects`, `watchdog`, and
+`bytes` of this input.
 """
 
 from __future__ import annotations
 
 import asyncio
-from typing import Awaitable, Callable
+from typing import Callable
 
 from edged.backoff import Backoff
 from edged.health import ComponentHealth
+from edged.link import Link, LinkLost, LinkStale, Sleep
 
 from .transports.base import Transport
 
-Sleep = Callable[[float], Awaitable[None]]
+__all__ = ["TransportLink", "Sleep"]
 
 
-class Link:
+class TransportLink:
     def __init__(
         self,
         transport: Transport,
@@ -32,8 +34,7 @@ class Link:
         self.transport = transport
         self.health = health
         self.watchdog = watchdog
-        self.backoff = backoff
-        self._sleep = sleep
+        self.link: Link[Transport] = Link(health, backoff, where=transport.describe(), sleep=sleep)
 
     async def run(self, on_data: Callable[[bytes], None], on_reset: Callable[[], None]) -> None:
         """Deliver received bytes to `on_data` until cancelled (or a regular file ends).
@@ -41,40 +42,29 @@ class Link:
         `on_reset` is called after every connection ends, so that a partial line of
         the old connection is not glued to the first bytes of the next.
         """
-        h = self.health
-        where = self.transport.describe()
-        while True:
-            h.set_state("connecting", where)
-            try:
-                await self.transport.open()
-            except OSError as exc:
-                h.count("connect_failures")
-                h.error(f"{where}: cannot open: {exc.strerror or exc}")
-                h.set_state("disconnected", "open failed")
-                await self._sleep(self.backoff.next_delay())
-                continue
-            h.count("connects")
-            h.set_state("connected", where)
-            try:
-                ended = await self._pump(on_data)
-            except OSError as exc:
-                h.error(f"{where}: link broke: {exc}")
-                ended = False
-            finally:
-                await self.transport.close()
-                on_reset()
-            if ended and self.transport.finite:
-                h.set_state("finished", where)
-                return
-            h.count("disconnects")
-            h.set_state("disconnected", where)
-            await self._sleep(self.backoff.next_delay())
+        transport = self.transport
 
-    async def _pump(self, on_data: Callable[[bytes], None]) -> bool:
-        """Read until the stream ends (True) or the watchdog fires (False)."""
+        async def opener() -> Transport:
+            await transport.open()
+            return transport
+
+        async def session(t: Transport) -> None:
+            await self._pump(on_data)
+
+        async def close(t: Transport) -> None:
+            try:
+                await t.close()
+            finally:
+                on_reset()
+
+        await self.link.run(opener, session, close)
+
+    async def _pump(self, on_data: Callable[[bytes], None]) -> None:
+        """Read until the stream ends: return for a file, LinkLost/LinkStale otherwise."""
         h = self.health
         read = self.transport.read
         finite = self.transport.finite
+        stable = self.link.stable
         while True:
             try:
                 # asyncio.timeout, not wait_for: on Python 3.11 wait_for returns the
@@ -83,11 +73,11 @@ class Link:
                 async with asyncio.timeout(None if finite else self.watchdog):
                     chunk = await read()
             except TimeoutError:
-                h.count("watchdog")
-                h.set_state("stale", f"no data for {self.watchdog:g} s")
-                return False
+                raise LinkStale(f"no data for {self.watchdog:g} s") from None
             if not chunk:
-                return True
+                if finite:
+                    return
+                raise LinkLost("closed by the peer")
             h.count("bytes", len(chunk))
-            self.backoff.reset()  # the link works: the next failure starts afresh
+            stable()  # the link works: the next failure starts afresh
             on_data(chunk)

@@ -12,7 +12,7 @@ from edged.records import RawRecord
 from .config import Nmea0183Config
 from .decoder import DecoderSettings, Nmea0183Decoder
 from .framer import Framer
-from .link import Link, Sleep
+from .link import Sleep, TransportLink
 from .replay import PROTOCOL, meta_of, read_log, sniff
 from .transports import make_transport
 
@@ -56,7 +56,7 @@ class Nmea0183Input(InputPlugin):
                 emit(framer.flush())
             framer.reset()
 
-        link = Link(
+        link = TransportLink(
             self.transport,
             ctx.health,
             watchdog=cfg.watchdog,

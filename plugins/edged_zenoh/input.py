@@ -24,7 +24,7 @@ from edged.records import RawRecord
 
 from .decode import ZenohDecoder
 from .keys import KeySpace, valid_chunk
-from .session import close_session, open_plugin_session, plugin_session_config
+from .session import SessionOpener, close_session, plugin_session_config, plugin_session_link
 from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults
 
 __all__ = ["ZenohInput", "ZenohInputConfig", "KeyMapping"]
@@ -103,8 +103,15 @@ class ZenohInput(InputPlugin):
         plugin_session_config(self.config, self.ctx, self._base_config())  # ZenohConfigError is a ValueError
 
     async def run(self) -> None:
+        """Open the session with the shared link (`edged.link`): the input's state is
+        `connecting` / `disconnected` until zenoh opens, then `connected`."""
         cfg = plugin_session_config(self.config, self.ctx, self._base_config())
-        session = await open_plugin_session(self.config, self.ctx, cfg)
+        opener = SessionOpener(cfg, self.ctx.health, self.ctx.log, listen_fallback=self.config.listen_fallback)
+        link = plugin_session_link(self.config, self.ctx)
+        await link.run(opener, self._serve)  # _serve closes the session itself
+
+    async def _serve(self, session: zenoh.Session) -> None:
+        """Subscribe and read until the session closes (or the task is cancelled)."""
         routes = self._routes()
         pool = ThreadPoolExecutor(max_workers=max(1, len(routes)), thread_name_prefix=f"{self.ctx.name}-recv")
         try:

@@ -119,8 +119,10 @@ async def test_frames_sent_on_a_virtual_bus_become_measurements():
     assert meas[3].values["heading"] == pytest.approx(math.radians(45.0), abs=1e-4)
     assert all(m.t == 1732350000.0 for m in meas)  # stamped by ctx.clock
     assert raws[3] == RawRecord("can", "can0", 1732350000.0, bytes(_frames()[3].data), {"id": 0x09F1121C, "ext": True})
-    assert h.health.state == "running"
+    assert h.health.state == "connected"  # the shared link states (edged.link)
+    assert h.health.snapshot()["ok"] is True
     assert h.health.counters["frames"] == 4
+    assert h.health.counters["connects"] == 1
 
 
 async def test_a_silent_bus_is_reopened_by_the_watchdog_with_growing_backoff():
@@ -128,7 +130,8 @@ async def test_a_silent_bus_is_reopened_by_the_watchdog_with_growing_backoff():
     h.sleeps_wanted = 4
     await h.run_until(h.sleeps)
     assert h.delays[:4] == [0.5, 1.0, 1.5, 1.5]
-    assert h.health.counters["bus.watchdog"] >= 4
+    assert h.health.counters["watchdog"] >= 4
+    assert h.health.counters["disconnects"] >= 4
     assert h.plugin.sessions >= 4
     assert "no frame for 0.05 s" in h.health.last_error
 
@@ -166,7 +169,8 @@ async def test_a_bus_error_is_reported_and_the_bus_reopened():
     await h.run_until(h.sink.enough)
     await sender
     assert h.health.counters["bus.errors"] == 1
-    assert h.health.counters["bus.reopen"] == 1
+    assert h.health.counters["disconnects"] == 1
+    assert h.health.counters["connects"] == 2
     assert h.delays == [0.5]
     assert "Network is down" in h.health.last_error
     assert [r.kind for r in h.sink if isinstance(r, Measurement)] == ["draft"]
@@ -188,8 +192,8 @@ async def test_bus_off_is_reported_in_health_and_the_bus_reopened():
     await h.run_until(h.sleeps)
     await sender
     c = h.health.counters
-    assert (c["bus.error_frames"], c["bus.bus_off"], c["bus.reopen"]) == (1, 1, 1)
-    assert states == ["bus_off"]
+    assert (c["bus.error_frames"], c["bus.bus_off"], c["disconnects"]) == (1, 1, 1)
+    assert states == ["disconnected"]  # bus-off is the reason, not a state of its own
     assert h.delays == [0.5]  # frames had flowed: the backoff starts over
     assert "bus-off" in h.health.last_error
 
@@ -204,6 +208,7 @@ async def test_an_interface_that_cannot_be_opened_is_retried_with_backoff():
     h.open_bus = no_such_interface
     await h.run_until(h.sleeps)
     assert h.delays[:3] == [0.25, 0.5, 1.0]
-    assert h.health.counters["bus.open_failed"] >= 3
-    assert h.health.state == "reconnecting"
+    assert h.health.counters["connect_failures"] >= 3
+    assert h.health.state == "disconnected"
+    assert h.health.snapshot()["ok"] is False
     assert "No such device" in h.health.last_error

@@ -169,6 +169,7 @@ def test_backoff_doubles_to_its_cap_while_the_peer_is_down(event_health):
         assert delays[:6] == [0.5, 1.0, 2.0, 3.0, 3.0, 3.0]
         assert event_health.counters["connect_failures"] >= 6
         assert event_health.state in ("disconnected", "connecting")
+        assert event_health.snapshot()["ok"] is False  # reconnecting is not ok
 
     asyncio.run(main())
 
@@ -183,6 +184,7 @@ def test_udp_unicast_datagrams(event_health):
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
                 s.sendto(GGA + b"\r\n" + HDT, ("127.0.0.1", port))  # last line without CR LF
             await sink.wait_raw(2)
+            assert event_health.state == "connected" and event_health.snapshot()["ok"] is True
         finally:
             await stop(task)
         assert [r.data for r in sink.raw] == [GGA, HDT]

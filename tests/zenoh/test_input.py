@@ -77,7 +77,35 @@ def test_forecast_and_mapped_keys_become_measurements_bad_ones_are_counted(make_
         task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await task
-        assert c.health.info["zenoh"] == "open"
+        assert c.health.state == "connected"  # the shared link states (edged.link)
+        assert c.health.snapshot()["ok"] is True
+        assert c.health.counters["connects"] == 1
         ashore.close()
+
+    asyncio.run(scenario())
+
+
+def test_without_a_router_the_input_reports_that_it_is_not_connected(make_ctx, free_port):
+    """Client mode, nobody on the endpoint: the shared link states and counters, not ok."""
+    port = free_port()
+    c = make_ctx("shore", "v9")
+    config = ZenohInputConfig.model_validate(
+        {"type": "zenoh", "connect": [f"tcp/127.0.0.1:{port}"], "retry_initial": 0.01, "retry_max": 0.02}
+    )
+    inp = ZenohInput(config, c.ctx)
+
+    async def scenario() -> None:
+        task = asyncio.create_task(inp.run())
+        try:
+            async with asyncio.timeout(SAFETY):
+                while c.health.counters.get("connect_failures", 0) < 2:
+                    await asyncio.sleep(0.005)
+            assert c.health.state in ("connecting", "disconnected")
+            assert c.health.snapshot()["ok"] is False
+            assert "connects" not in c.health.counters and not inp.subscribed.is_set()
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
 
     asyncio.run(scenario())

@@ -32,14 +32,15 @@ def test_client_mode_keeps_running_without_router_and_publishes_once_it_starts(m
         out.write([Estimate("stw", "stw", T0, {"stw": 4.0})])
         assert c.health.counters["unsent.no_session"] == 1
         assert c.health.info["zenoh"] == "connecting"
-        while c.health.counters.get("open_retries", 0) < 2:
+        while c.health.counters.get("connect_failures", 0) < 2:
             await asyncio.sleep(0)  # let the connector fail twice on its own backoff clock
         assert not out.connected.is_set()
 
         router = router_proc(port)
         await asyncio.to_thread(router.expect, lambda s: "listening on" in s)
         await asyncio.wait_for(out.connected.wait(), SAFETY)
-        assert c.health.info["zenoh"] == "open"
+        assert c.health.info["zenoh"] == "connected"  # the output's link state is info, not its state
+        assert c.health.counters["connects"] == 1
 
         sub_session = zenoh.open(to_zenoh(safe_defaults(mode="client", listen=[], connect=[f"tcp/127.0.0.1:{port}"])))
         got: asyncio.Queue[dict] = asyncio.Queue()
@@ -130,7 +131,7 @@ def test_no_fallback_when_disabled_retries_instead(make_ctx, free_port):
 
     async def scenario() -> None:
         await out.open()
-        while c.health.counters.get("open_retries", 0) < 2:
+        while c.health.counters.get("connect_failures", 0) < 2:
             await asyncio.sleep(0)  # yield to the connector; it retries on its own clock
         assert not out.connected.is_set()
         assert "Address already in use" in (c.health.last_error or "")
