@@ -40,13 +40,16 @@ def setup_logging(level: str = "info", log_file: str | None = None) -> None:
 
 
 def reopen_logs() -> None:
-    """SIGHUP: reopen log files (after logrotate moved them)."""
+    """SIGHUP: reopen log files that logrotate moved or removed.
+
+    `WatchedFileHandler.reopenIfNeeded` reopens only when the file at the path is no
+    longer the one open (moved, removed, replaced): exactly what logrotate's rename
+    does, and a SIGHUP without a rotation keeps the open file.
+    """
     for h in logging.getLogger().handlers:
         if isinstance(h, logging.handlers.WatchedFileHandler):
-            h.acquire()
+            h.acquire()  # emit() checks under the same lock
             try:
-                if h.stream:
-                    h.stream.close()
-                h.stream = h._open()
+                h.reopenIfNeeded()
             finally:
                 h.release()
