@@ -1,0 +1,172 @@
+"""`edged score FILE.mcap --truth truth.csv`: estimates against truth (DESIGN §4).
+
+Per scored field of every `/est/<name>` channel (`edged.estimates`: its truth column,
+σ and the sensor it replaces): n, RMSE, bias, max |error|, the share of errors inside
+±1/2/3σ and the error autocorrelation at lags 1, 10 and 60 samples (ESTIMATORS
+"Evaluation": a consistent filter covers 68/95/99.7 % and its converged error is
+white). The raw sensor rows sit indented under their field, judged by the same rules,
+so that "better than the sensor" is read off one table. The figures and the truth.csv
+format are in `edged_mcap.scoring`.
+
+Output: a fixed-width table on stdout, or with `--json` one JSON list of rows (null
+where a figure does not apply). Notes (unscorable kinds, missing truth columns, bad
+truth rows, a damaged recording) go to stderr.
+
+Exit codes (DESIGN §4): 2 for bad usage or input files (missing, not MCAP, not a
+truth table, no estimates, no overlapping time, nothing left after the warm-up), 1
+for a runtime failure (an I/O error; also, without a message, a reader that closed the
+pipe early), 0 otherwise; always a one-line message naming the file, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import orjson
+from mcap.exceptions import McapError
+
+from ..reading import ReadReport, iter_messages
+from ..scoring import LAGS, SIGMAS, Recording, Row, ScoreError, load_truth, score
+from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
+
+
+def read_recording(path: Path) -> tuple[Recording, ReadReport]:
+    """The estimates and baseline measurements of a recording, finished or not."""
+    rec = Recording(str(path))
+    report = ReadReport()
+    with open(path, "rb") as f:
+        for ch, _schema, msg in iter_messages(f, report):
+            if not rec.wants(ch.topic):
+                continue
+            try:
+                payload = orjson.loads(msg.data)
+            except orjson.JSONDecodeError:
+                rec.undecodable += 1
+                continue
+            rec.add(ch.topic, payload)
+    return rec, report
+
+
+def _damage_notes(path: Path, report: ReadReport, rec: Recording) -> list[str]:
+    """What a damaged or unfinished file cost: scored anyway, from what was readable."""
+    notes = []
+    if not report.finished:
+        why = report.error or ("ends inside a record" if report.truncated else "no footer")
+        notes.append(f"{path}: unfinished recording ({why}); scored what was readable")
+    if report.bad_chunks:
+        notes.append(f"{path}: {report.bad_chunks} damaged chunk(s) skipped")
+    if report.orphans:
+        notes.append(f"{path}: {report.orphans} message(s) without a channel skipped")
+    if rec.undecodable:
+        notes.append(f"{path}: {rec.undecodable} message(s) that are not JSON objects with a time skipped")
+    return notes
+
+
+def _g(x: float | None) -> str:
+    return "-" if x is None else f"{x:.4g}"
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{x:.1f}"
+
+
+def _ac(x: float | None) -> str:
+    return "-" if x is None else f"{x:+.2f}"
+
+
+#: Column headers; ASCII so that a terminal or pipe of any encoding shows them.
+_HEAD = ("estimate", "field", "unit", "n", "rmse", "bias", "max", *(f"{k}sig%" for k in SIGMAS), *(f"ac{k}" for k in LAGS))
+
+
+def render(rows: list[Row]) -> str:
+    """The table: one line per field, its sensors indented under it."""
+    cells: list[tuple[str, ...]] = []
+    for r in rows:
+        f = r.figures
+        if r.baseline is None:
+            first, second = r.estimate, r.field
+        else:
+            first, second = "", f"  vs {r.baseline} ({r.baseline_field})"
+        cells.append(
+            (first, second, r.unit, str(f.n), _g(f.rmse), _g(f.bias), _g(f.max_abs), *map(_pct, f.within), *map(_ac, f.ac))
+        )
+    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(_HEAD)]
+    left = 3  # estimate, field, unit: text, left-aligned; figures right-aligned
+
+    def line(c: tuple[str, ...]) -> str:
+        return "  ".join(v.ljust(w) if i < left else v.rjust(w) for i, (v, w) in enumerate(zip(c, widths))).rstrip()
+
+    return "\n".join([line(_HEAD), *map(line, cells)]) + "\n"
+
+
+def _emit(text: str) -> int:
+    """Write the result; a reader that went away (`| head`) ends it quietly."""
+    try:
+        sys.stdout.write(text)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # Python flushes stdout again at exit and would report the same broken pipe:
+        # point the descriptor at /dev/null so that flush has somewhere to go.
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            os.close(devnull)
+        except (OSError, ValueError):
+            pass
+        return EXIT_FAILURE
+    return EXIT_OK
+
+
+def _os_error(path: Path, exc: OSError) -> int:
+    """An unreadable input is the user's to fix (2); any other I/O error is a failure (1)."""
+    code = EXIT_USAGE if isinstance(exc, (PermissionError, IsADirectoryError)) else EXIT_FAILURE
+    return fail(f"{exc.filename or path}: {exc.strerror or exc}", code)
+
+
+def main(args: argparse.Namespace) -> int:
+    warmup = args.warmup
+    if not (isinstance(warmup, (int, float)) and math.isfinite(warmup) and warmup >= 0):
+        return fail(f"--warmup: {warmup!r} is not a non-negative number of seconds", EXIT_USAGE)
+    path = existing_file(args.file)
+    if path is None:
+        return EXIT_USAGE
+    truth_path = existing_file(args.truth)
+    if truth_path is None:
+        return EXIT_USAGE
+    try:
+        with open(truth_path, encoding="utf-8-sig", newline="") as f:
+            truth = load_truth(f, str(truth_path))
+    except ScoreError as exc:
+        return fail(str(exc), EXIT_USAGE)
+    except OSError as exc:
+        return _os_error(truth_path, exc)
+    try:
+        rec, report = read_recording(path)
+    except McapError as exc:
+        return fail(f"{path}: {exc}", EXIT_USAGE)
+    except OSError as exc:
+        return _os_error(path, exc)
+
+    notes = _damage_notes(path, report, rec)
+    if truth.bad_rows:
+        notes.append(f"{truth_path}: {truth.bad_rows} bad row(s) skipped (not numbers, no time or wrong number of cells)")
+    try:
+        result = score(rec, truth, float(warmup), args.estimate)
+    except ScoreError as exc:
+        for n in notes:
+            print(f"edged: {n}", file=sys.stderr)
+        return fail(str(exc), EXIT_USAGE)
+    except Exception as exc:  # noqa: BLE001 - the CLI contract: a message and 1, never a traceback
+        return fail(f"{path}: scoring failed: {type(exc).__name__}: {exc}", EXIT_FAILURE)
+    for n in notes + result.notes:
+        print(f"edged: {n}", file=sys.stderr)
+    if args.json:
+        doc: list[dict[str, Any]] = [r.to_json() for r in result.rows]
+        return _emit(json.dumps(doc, indent=1) + "\n")
+    return _emit(render(result.rows))
