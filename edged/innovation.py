@@ -11,6 +11,7 @@ returns `snapshot()` from its core's `health()`.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from functools import cache
@@ -19,13 +20,47 @@ from typing import Any
 __all__ = ["InnovationMonitor", "chi2_band"]
 
 
+def _chi2_cdf(x: float, dof: int) -> float:
+    """P(χ²_dof <= x): the regularised lower incomplete gamma P(dof/2, x/2), by its
+    power series (converges for every x; a few hundred terms at most for the sizes of
+    a filter's measurement vectors)."""
+    if x <= 0.0:
+        return 0.0
+    s, z = dof / 2.0, x / 2.0
+    term = 1.0 / s
+    total = term
+    n = 1
+    while term > total * 1e-15 and n < 10_000:
+        term *= z / (s + n)
+        total += term
+        n += 1
+    return min(1.0, math.exp(s * math.log(z) - z - math.lgamma(s)) * total)
+
+
+def _chi2_ppf(p: float, dof: int) -> float:
+    lo, hi = 0.0, max(10.0, 10.0 * dof)
+    while _chi2_cdf(hi, dof) < p:
+        hi *= 2.0
+    for _ in range(200):  # bisection to machine precision
+        mid = 0.5 * (lo + hi)
+        if _chi2_cdf(mid, dof) < p:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
 @cache
 def chi2_band(dof: int, coverage: float = 0.95) -> tuple[float, float]:
-    """The two-sided χ² interval holding `coverage` of a dof-degree χ² variable."""
-    from scipy.stats import chi2  # scipy comes with filterpy; imported when first needed
+    """The two-sided χ² interval holding `coverage` of a dof-degree χ² variable.
 
+    Computed here rather than with scipy: importing scipy.stats takes about a second,
+    which a worker process would spend in its first update.
+    """
+    if dof < 1:
+        raise ValueError("dof must be >= 1")
     tail = (1.0 - coverage) / 2.0
-    return float(chi2.ppf(tail, dof)), float(chi2.ppf(1.0 - tail, dof))
+    return _chi2_ppf(tail, dof), _chi2_ppf(1.0 - tail, dof)
 
 
 @dataclass

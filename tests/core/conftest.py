@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from core_dummies import ChainEstimator, DummyInput, ListOutput, SumEstimator
+from core_dummies import ChainEstimator, DummyInput, ListOutput, SumEstimator, MeanEstimator
 
 from edged.registry import Registry
 
@@ -19,6 +19,7 @@ def registry() -> Registry:
     r.register("inputs", "dummy", DummyInput)
     r.register("estimators", "sum", SumEstimator)
     r.register("estimators", "chain", ChainEstimator)
+    r.register("estimators", "mean", MeanEstimator)
     r.register("outputs", "list", ListOutput)
     return r
 

@@ -101,16 +101,22 @@ class SumCore:
 
 
 class ChainCore:
-    """Consumes the `sum` estimate and the raw yaw rate: order-sensitive on purpose."""
+    """Consumes an upstream estimate and the raw yaw rate: order-sensitive on purpose
+    (a trace of what came in, and a running value that any reordering changes)."""
 
-    inputs = frozenset({"est/sum", "yaw_rate"})
-
-    def __init__(self) -> None:
+    def __init__(self, upstream: str) -> None:
+        self.upstream = upstream
+        self.inputs = frozenset({f"est/{upstream}", "yaw_rate"})
         self.trace: list[str] = []
+        self.value = 0.0
 
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
         self.trace.append(rec.route_key)
-        return [Estimate("chain", "chain", rec.t, {"trace": "".join(k[0] for k in self.trace)})]
+        x = rec.values["total"] if isinstance(rec, Estimate) else rec.values["r"]
+        self.value = 0.9 * self.value + x
+        return [
+            Estimate("chain", "chain", rec.t, {"trace": "".join(k[0] for k in self.trace[-16:]), "value": self.value})
+        ]
 
 
 class SumConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
@@ -127,9 +133,75 @@ class SumEstimator(EstimatorPlugin):
         return core
 
 
+class ChainConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
+    #: The estimator instance whose estimates it consumes.
+    upstream: str = "sum"
+
+
 class ChainEstimator(EstimatorPlugin):
+    Config = ChainConfig
+
     def make_core(self) -> ChainCore:
-        return ChainCore()
+        return ChainCore(self.config.upstream)
+
+
+class MeanConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
+    #: Seconds each step sleeps (a deliberately slow filter).
+    step_delay: float = 0.0
+    #: A yaw rate on which the core hangs for `hang_for` seconds.
+    hang_on: float | None = None
+    hang_for: float = 60.0
+    #: Publish only on ticks (a core with `tick`).
+    tick_only: bool = False
+
+
+class MeanCore:
+    """Mean of the yaw rates seen, with its own health: NIS of each update, a gate
+    for |r| > 1 rad/s, and a reset when r is exactly 0.5."""
+
+    inputs = frozenset({"yaw_rate"})
+
+    def __init__(self, cfg: MeanConfig) -> None:
+        from edged.innovation import InnovationMonitor
+
+        self.cfg = cfg
+        self.n = 0
+        self.mean = 0.0
+        self.monitor = InnovationMonitor(window=10)
+        if cfg.tick_only:
+            self.tick = self._tick
+
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        import time
+
+        r = rec.values["r"]
+        if self.cfg.step_delay:
+            time.sleep(self.cfg.step_delay)
+        if self.cfg.hang_on is not None and r == self.cfg.hang_on:
+            time.sleep(self.cfg.hang_for)
+        if abs(r) > 1.0:
+            self.monitor.gated("yaw_rate")
+            return []
+        if r == 0.5:
+            self.monitor.reset("r was 0.5", rec.t)
+        self.monitor.update("yaw_rate", (r - self.mean) ** 2, 1)
+        self.n += 1
+        self.mean += (r - self.mean) / self.n
+        return [] if self.cfg.tick_only else [Estimate("x", "x", rec.t, {"mean": self.mean, "n": self.n})]
+
+    def _tick(self, t: float) -> list[Estimate]:
+        return [Estimate("x", "x", t, {"mean": self.mean, "n": self.n})]
+
+    def health(self) -> dict[str, Any]:
+        return self.monitor.snapshot()
+
+
+class MeanEstimator(EstimatorPlugin):
+    Config = MeanConfig
+    kind = "stw"  # any defined kind: the host stamps it on every estimate
+
+    def make_core(self) -> MeanCore:
+        return MeanCore(self.config)
 
 
 class ListOutputConfig(OutputConfig):
