@@ -1,0 +1,73 @@
+"""Estimate kinds: one definition, and the docs, schemas and payloads agree with it."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from edged.estimates import COMMON_FIELDS, DRAFT_MARKS, ESTIMATE_KINDS, estimate_to_json, kinds_markdown
+from edged.jsonpayload import record_json
+from edged.records import Estimate
+
+DESIGN = Path(__file__).resolve().parents[2] / "docs" / "DESIGN.md"
+
+
+def _design_fields(kind: str) -> set[str]:
+    """The field names DESIGN §6 lists for `est/<kind>` (backticked, comma-separated)."""
+    text = DESIGN.read_text(encoding="utf-8")
+    start = text.index(f"- `est/{kind}`:")
+    end = text.find("\n- ", start + 1)
+    end = text.index("\n## ", start) if end < 0 or text.find("\n## ", start) < end else end
+    names: set[str] = set()
+    for chunk in re.findall(r"`([^`]+)`", text[start:end]):
+        if chunk.startswith(("est/", "{", "paper")):
+            continue
+        names.update(n.strip() for n in chunk.split(","))
+    return names
+
+
+def test_every_field_design_names_is_defined_and_every_defined_field_is_in_design():
+    for name, kind in ESTIMATE_KINDS.items():
+        doc = _design_fields(name)
+        defined = {f.name for f in kind.fields} | {"t"}
+        mark = {f.name for f in kind.mark_fields}
+        assert doc - defined - mark == set(), f"{name}: named in DESIGN, not defined"
+        assert defined - doc == set(), f"{name}: defined, not in DESIGN §6"
+        assert mark <= doc
+
+
+def test_scored_fields_have_truth_columns_of_the_simulator_and_valid_sigma_paths():
+    from edged_sim.truth import columns
+
+    truth = set(columns())
+    for kind in ESTIMATE_KINDS.values():
+        names = {f.name for f in kind.fields}
+        for s in kind.scored_fields():
+            assert s.truth in truth, (kind.name, s.path)
+            if s.std is not None:
+                head = s.std.split(".")[0]
+                assert head in names or s.path.startswith("marks."), (kind.name, s.std)
+    draft = [s.path for s in ESTIMATE_KINDS["draft"].scored_fields()]
+    assert f"marks.{DRAFT_MARKS[0]}.mean" in draft and len(draft) == 6 * 2 + 6
+
+
+def test_an_estimate_as_json_has_the_common_fields_and_its_time_wins():
+    e = Estimate("stw_paper", "stw_paper", 10.0, {"t": 3.0, "stw": 1.0}, kind="stw")
+    d = estimate_to_json(e)
+    assert d == {"t": 10.0, "kind": "stw", "stale": False, "age": 0.0, "stw": 1.0}
+    assert record_json(e) == d
+    assert [f.name for f in COMMON_FIELDS] == ["t", "kind", "stale", "age"]
+
+
+def test_the_markdown_and_the_mcap_schemas_are_made_from_the_kinds():
+    from edged_mcap.schemas import schema_dict
+
+    md = kinds_markdown()
+    for kind in ESTIMATE_KINDS.values():
+        schema = schema_dict(f"edged.est.{kind.name}")
+        for f in kind.fields:
+            assert f"`{f.name}`" in md
+            assert f.name in schema["properties"], (kind.name, f.name)
+        assert schema["required"] == ["t", "kind", "stale", "age"]
+    marks = schema_dict("edged.est.draft")["properties"]["marks"]["properties"]
+    assert set(marks) == set(DRAFT_MARKS) and "mean" in marks["aft_stbd"]["properties"]
