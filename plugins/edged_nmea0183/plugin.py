@@ -17,6 +17,12 @@ from .replay import PROTOCOL, meta_of, read_log, sniff
 from .transports import make_transport
 
 
+_LOSS_HINT = {
+    "dropped.kernel": ": the socket's receive buffer was full (raise `rcvbuf`)",
+    "dropped.queue": ": the queue to the framer was full (the event loop is too busy)",
+}
+
+
 class Nmea0183Input(InputPlugin):
     """NMEA 0183 from a serial port, a TCP multiplexer, UDP datagrams or a file."""
 
@@ -65,6 +71,25 @@ class Nmea0183Input(InputPlugin):
         )
         await link.run(on_data, on_end)
         await asyncio.Event().wait()  # a finished file: stay until cancelled, as run() must
+
+    def status(self) -> dict[str, Any]:
+        """Copy the transport's loss counters into health (at every health snapshot).
+
+        The counters are running totals kept by the transport across reopens and
+        restarts of `run`; a loss is also the component's last error, logged once per
+        change of message. The state stays the link's: a link that loses part of a
+        flood still delivers, and `rates` in health shows how much it loses.
+        """
+        t = self.transport
+        h = self.ctx.health
+        counters = h.counters
+        for key, total in t.counters().items():
+            before = counters.get(key, 0)
+            if total > before or key not in counters:
+                counters[key] = max(total, before)
+            if total > before:
+                h.error(f"{t.describe()}: data lost before framing ({key}){_LOSS_HINT.get(key, '')}")
+        return t.info()
 
     @classmethod
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Nmea0183Decoder:

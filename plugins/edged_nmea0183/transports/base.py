@@ -36,6 +36,16 @@ class Transport(ABC):
     async def close(self) -> None:
         """Release the link; safe to call when not open."""
 
+    def counters(self) -> dict[str, int]:
+        """What this transport lost before the framer saw it, as running totals since
+        it was made, across reopens (`dropped.kernel`, `dropped.queue`); the input
+        copies them into its health counters at every health snapshot."""
+        return {}
+
+    def info(self) -> dict[str, Any]:
+        """Settings as they took effect (`rcvbuf`), for health `info`."""
+        return {}
+
     @property
     def finite(self) -> bool:
         """True when end of stream means "done" (a regular file), not "reconnect"."""

@@ -1,0 +1,205 @@
+"""Loss that health must show: a UDP flood the kernel drops, a full datagram queue, and
+serial sentences that waited in the port while it was closed (issue 10)."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import socket
+import tty
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from edged.clock import ManualClock
+from edged.plugin import PluginContext
+from edged.records import RawRecord
+from edged_nmea0183.config import Nmea0183Config
+from edged_nmea0183.plugin import Nmea0183Input
+from edged_nmea0183.transports import udp as udp_mod
+from edged_nmea0183.transports.udp import UdpTransport, kernel_drops, proc_drops
+
+HDT = b"$HEHDT,274.07,T*19"
+GGA = b"$GPGGA,094736,5251.0094,N,00518.8172,E,1,12,0.60,-4,M,46.8,M,,*4B"
+NOW = 1_700_000_000.0
+TIMEOUT = 10.0
+linux = pytest.mark.skipif(not os.path.exists("/proc/net/udp"), reason="kernel drop counters are Linux's")
+
+
+class Sink:
+    def __init__(self) -> None:
+        self.items: list[Any] = []
+        self.changed = asyncio.Event()
+
+    def __call__(self, rec: Any) -> None:
+        self.items.append(rec)
+        self.changed.set()
+
+    @property
+    def raw(self) -> list[RawRecord]:
+        return [r for r in self.items if isinstance(r, RawRecord)]
+
+    async def wait_raw(self, n: int) -> None:
+        async with asyncio.timeout(TIMEOUT):
+            while len(self.raw) < n:
+                self.changed.clear()
+                await self.changed.wait()
+
+
+def make(health, sleep=None, **cfg: Any) -> tuple[Nmea0183Input, Sink]:
+    config = Nmea0183Config(type="nmea0183", **cfg)
+    sink = Sink()
+    ctx = PluginContext(
+        name="gnss1",
+        clock=ManualClock(NOW),
+        health=health,
+        publish=sink,
+        decoder=Nmea0183Input.make_decoder("gnss1", config, health),
+    )
+    kw = {"sleep": sleep} if sleep is not None else {}
+    return Nmea0183Input(config, ctx, **kw), sink
+
+
+async def stop(task: asyncio.Task) -> None:
+    task.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await task
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+# -- UDP ------------------------------------------------------------------------------
+FLOOD = 600  # datagrams: far more than an 8 KiB receive buffer holds
+
+
+@linux
+def test_udp_flood_kernel_drops_are_counted_in_health(event_health):
+    async def main() -> None:
+        port = free_udp_port()
+        plugin, sink = make(event_health, transport="udp", port=port)
+        plugin.transport.rcvbuf = 4096  # the smallest buffer: the kernel makes it ~8 KiB
+        task = asyncio.create_task(plugin.run())
+        try:
+            await event_health.wait_state("connected")
+            assert plugin.status()["rcvbuf"] <= 16384
+            assert event_health.counters["dropped.kernel"] == 0  # measured, none yet
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                # The loop does not run while this loop sends: nothing reads the socket.
+                for i in range(FLOOD):
+                    s.sendto(HDT + b"\r\n", ("127.0.0.1", port))
+            plugin.status()  # a health snapshot: the drops are known before any read
+            dropped = event_health.counters["dropped.kernel"]
+            assert 0 < dropped < FLOOD
+            await sink.wait_raw(FLOOD - dropped)  # every datagram is received or counted
+            plugin.status()
+            snap = event_health.snapshot()
+        finally:
+            await stop(task)
+        assert len(sink.raw) == FLOOD - dropped
+        assert snap["counters"]["dropped.kernel"] == dropped
+        assert snap["counters"]["dropped.queue"] == 0
+        assert "dropped.kernel" in snap["last_error"] and "rcvbuf" in snap["last_error"]
+        # The link stays connected (it delivers); the loss is in the counters and rates.
+        assert snap["state"] == "connected"
+
+    asyncio.run(main())
+
+
+@linux
+def test_udp_kernel_drops_survive_a_reopen(event_health):
+    """The totals are the transport's across sockets: a watchdog reopen loses nothing."""
+
+    async def main() -> None:
+        t = UdpTransport("127.0.0.1", 0, rcvbuf=4096)
+        await t.open()
+        port = t.local_port
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for _ in range(FLOOD):
+                s.sendto(HDT, ("127.0.0.1", port))
+        await t.close()  # no look at the counter before: close takes the last one
+        first = t.kernel_dropped
+        assert first > 0
+        await t.open()  # another socket (port 0: the old one closes on the next loop turn)
+        assert t.counters()["dropped.kernel"] == first  # a new socket starts at 0: no double count
+        await t.close()
+
+    asyncio.run(main())
+
+
+@linux
+def test_proc_net_udp_fallback_matches_the_socket_counter():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as r, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        r.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        r.bind(("127.0.0.1", 0))
+        for _ in range(FLOOD):
+            s.sendto(HDT, r.getsockname())
+        n = kernel_drops(r)
+        assert n is not None and n > 0
+        assert proc_drops(r) == n
+
+
+def test_proc_net_udp_missing_or_foreign_is_unknown(tmp_path):
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as r:
+        r.bind(("127.0.0.1", 0))
+        assert proc_drops(r, str(tmp_path)) is None  # no /proc
+        (tmp_path / "udp").write_text("  sl  local_address ...\n   0: 0100007F:1F90 00000000:0000 07 x x x 0 0 1 2 p 5\n")
+        assert proc_drops(r, str(tmp_path)) is None  # not our inode
+
+
+def test_udp_queue_overflow_reaches_health(event_health, monkeypatch):
+    """The transport's own drop count (its queue to the framer full) is in health."""
+    monkeypatch.setattr(udp_mod, "QUEUE_SIZE", 5)
+
+    async def main() -> None:
+        plugin, _ = make(event_health, transport="udp", port=free_udp_port())
+        t = plugin.transport
+        t.port = 0
+        await t.open()  # opened by hand: nothing reads the queue
+        try:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                for _ in range(20):
+                    s.sendto(HDT, ("127.0.0.1", t.local_port))
+            while t.dropped < 15:  # the protocol callback runs once per datagram
+                await asyncio.sleep(0)
+            plugin.status()
+        finally:
+            await t.close()
+        assert event_health.counters["dropped.queue"] == 15
+        assert "dropped.queue" in event_health.last_error
+
+    asyncio.run(main())
+
+
+def test_rcvbuf_from_configuration():
+    cfg = SimpleNamespace(bind="127.0.0.1", port=10110, broadcast=False, rcvbuf=1 << 20)
+    assert UdpTransport.from_config(cfg).rcvbuf == 1 << 20
+    del cfg.rcvbuf  # a configuration from before the key existed
+    assert UdpTransport.from_config(cfg).rcvbuf is None
+
+
+def test_rcvbuf_is_applied_to_the_socket():
+    async def main() -> None:
+        small, big = UdpTransport("127.0.0.1", 0, rcvbuf=4096), UdpTransport("127.0.0.1", 0, rcvbuf=100_000)
+        await small.open()
+        await big.open()
+        try:
+            assert small.info()["rcvbuf"] < big.info()["rcvbuf"]
+            assert big.info()["rcvbuf"] >= 100_000 or big.info()["rcvbuf"] >= _rmem_max()
+        finally:
+            await small.close()
+            await big.close()
+
+    asyncio.run(main())
+
+
+def _rmem_max() -> int:
+    try:
+        with open("/proc/sys/net/core/rmem_max") as f:
+            return 2 * int(f.read())
+    except OSError:
+        return 0
