@@ -5,6 +5,33 @@ floor stops *recording* only, with a health state saying why (`disk_low`,
 `disk_full`, `failed`), and the recorder tries again later in a new file (directory
 mode). `write()` never raises. Crash safety comes from small chunks and a flush (and
 fsync) about every second, driven by the runtime's `flush()`.
+
+What health says (beside the runtime's `written`, the records handed to this output):
+
+- `recorded`: messages that reached the file, counted when the chunk holding them has
+  been flushed to the file (at each flush, at a rotation and at the close), so that a
+  message lost in a chunk a write error never let out is not counted;
+- `dropped.<state>`: messages not recorded because recording was stopped (`disk_low`,
+  `disk_full`, `failed`, `closed`, `not_open`) or lost in the chunk open when a write
+  failed; `rejected.<reason>`: records that cannot be recorded (`bad_time`,
+  `unknown_record`, `malformed`, `unencodable`);
+- `info.disk_free_bytes`: free space of the recording folder, measured at every flush
+  and at every attempt to (re)start.
+
+A disk without room leaves no file behind: the free space is checked before a file is
+created (at least the floor and room for a chunk), the header is written out at once,
+and a file that got nothing but its header when a write failed is removed (one with
+data stays, for `edged recover`). Retries after a failed attempt back off, from
+`retry_seconds` doubling up to `RETRY_MAX_SECONDS`; a stop by the free-space floor
+alone is checked every `retry_seconds` (it creates nothing).
+
+Memory stays flat however long the recording: the `mcap` Writer keeps one chunk index
+entry per chunk in memory until the file is finished, so a file is finished and the
+next one begun when it reaches `max_chunks` chunks (`rotations.index`). In directory
+mode that is one more rotated file; with an exact `path` (`edged replay --record
+OUT.mcap`) the first file keeps the exact name and the next ones are numbered beside
+it: `OUT.mcap`, `OUT.001.mcap`, `OUT.002.mcap`, ... (at the reference load, one file
+per about two hours of data).
 """
 
 from __future__ import annotations
@@ -25,7 +52,7 @@ from .mcapfile import McapFile
 from .reading import MAGIC
 from .replay import read_raw
 
-__all__ = ["McapRecorder", "Opener"]
+__all__ = ["McapRecorder", "Opener", "numbered"]
 
 #: Opens a recording file: (path, mode) -> binary stream. Injectable for tests.
 Opener = Callable[[Path, str], BinaryIO]
@@ -39,9 +66,23 @@ FAILED = "failed"  # any other write or open error
 #: Log times are uint64 nanoseconds: data time must lie in [1970, 2554).
 MAX_T = (2**64 - 1) / 1e9
 
+#: The longest wait between two attempts to resume after failed ones (seconds).
+RETRY_MAX_SECONDS = 300.0
+#: Room a new file needs beyond one chunk (header, metadata, indexes, summary).
+FILE_HEADROOM = 256 * 1024
+#: Chunks per file before the next file (bounds the Writer's in-memory chunk index).
+MAX_CHUNKS = 20_000
+
 
 def _default_opener(path: Path, mode: str) -> BinaryIO:
     return open(path, mode)  # noqa: SIM115 - McapFile owns and closes it
+
+
+def numbered(path: Path, n: int) -> Path:
+    """The n-th file of an exact recording: `OUT.mcap`, then `OUT.001.mcap`, ..."""
+    if n == 0:
+        return path
+    return path.with_name(f"{path.stem}.{n:03d}{path.suffix}")
 
 
 def _write_error_state(exc: OSError) -> str:
@@ -61,6 +102,7 @@ class McapRecorder(OutputPlugin):
         *,
         free_bytes: files.FreeBytes = files.disk_free,
         opener: Opener = _default_opener,
+        max_chunks: int = MAX_CHUNKS,
     ) -> None:
         super().__init__(config, ctx)
         self.config: McapConfig = config
@@ -71,6 +113,9 @@ class McapRecorder(OutputPlugin):
         self._next_check = 0.0  # next free-space check / resume attempt (monotonic)
         self._stopped = "not_open"  # why nothing is being recorded (when _file is None)
         self._final = False  # an exact file that failed is never reopened
+        self._max_chunks = max_chunks
+        self._pending = 0  # messages added to the open chunk(s), not yet flushed to the file
+        self._failures = 0  # attempts in a row that failed with an OS error (the backoff)
         self.files: list[Path] = []
 
     # -- the OutputPlugin contract -----------------------------------------------------
@@ -129,11 +174,11 @@ class McapRecorder(OutputPlugin):
                     add(cid, log, data, pub)
                     n += 1
             except OSError as exc:
-                health.count("recorded", n)
+                self._pending += n
                 self._fail(exc)
                 health.count(f"dropped.{self._stopped}", len(batch) - i)
                 return
-        health.count("recorded", n)
+        self._pending += n
         self._maybe_rotate()
 
     def flush(self) -> None:
@@ -148,11 +193,10 @@ class McapRecorder(OutputPlugin):
         except OSError as exc:
             self._fail(exc)
             return
-        if now >= self._next_check:
-            self._next_check = now + self.config.retry_seconds
-            if not self._enough_space(f.path.parent):
-                self._finish(DISK_LOW)
-                return
+        self._confirm()
+        if not self._enough_space(f.path.parent):
+            self._finish(DISK_LOW)
+            return
         self._maybe_rotate()
 
     def rotate(self) -> None:
@@ -169,6 +213,18 @@ class McapRecorder(OutputPlugin):
         if self._file is not None:
             self._finish("closed")
         self.ctx.health.set_state("closed")
+
+    def _confirm(self) -> None:
+        """What was added so far is in the file now: count it recorded."""
+        if self._pending:
+            self.ctx.health.count("recorded", self._pending)
+            self._pending = 0
+            self._failures = 0  # a file that took data: the next trouble starts afresh
+
+    def _lose_pending(self) -> None:
+        if self._pending:
+            self.ctx.health.count(f"dropped.{self._stopped}", self._pending)
+            self._pending = 0
 
     def status(self) -> dict[str, Any]:
         f = self._file
@@ -195,18 +251,26 @@ class McapRecorder(OutputPlugin):
     def _target(self) -> Path:
         cfg = self.config
         if cfg.path is not None:
-            return cfg.path
+            return numbered(cfg.path, len(self.files))
         assert cfg.directory is not None
         return files.new_file(cfg.directory, self.ctx.clock.now())
 
-    def _enough_space(self, folder: Path) -> bool:
-        floor = int(self.config.min_free_gib * GIB)
+    def _measure_free(self, folder: Path) -> int | None:
+        """Free bytes of `folder`, published in health; None when unknown."""
         try:
-            free = self._free_bytes(folder)
-        except OSError as exc:
-            self.ctx.health.error(f"free space of {folder}: {exc.strerror or exc}")
-            return True  # unknown is not low: keep recording, the write itself will tell
+            free = int(self._free_bytes(folder))
+        except (OSError, TypeError, ValueError) as exc:
+            self.ctx.health.error(f"free space of {folder}: {getattr(exc, 'strerror', None) or exc}")
+            return None
         self.ctx.health.info["disk_free_bytes"] = free
+        return free
+
+    def _enough_space(self, folder: Path, free: int | None = None) -> bool:
+        floor = int(self.config.min_free_gib * GIB)
+        if free is None:
+            free = self._measure_free(folder)
+        if free is None:
+            return True  # unknown is not low: keep recording, the write itself will tell
         if free < floor:
             self.ctx.health.error(
                 f"free disk {free / GIB:.2f} GiB below the floor {self.config.min_free_gib} GiB: recording stopped"
@@ -222,30 +286,41 @@ class McapRecorder(OutputPlugin):
         folder = cfg.directory if cfg.directory is not None else cfg.path.parent  # type: ignore[union-attr]
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            if not self._enough_space(folder):
-                self._stop(DISK_LOW)
-                return
+        except OSError as exc:
+            self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
+            return
+        free = self._measure_free(folder)
+        if not self._enough_space(folder, free):
+            self._stop(DISK_LOW)
+            return
+        need = cfg.chunk_kib * 1024 + FILE_HEADROOM
+        if free is not None and free < need:
+            # Not even room for a chunk: creating the file would leave an empty one.
+            self._stop(DISK_FULL, f"cannot open a recording in {folder}: less than {need} bytes free")
+            return
+        try:
             path = self._target()
             stream = self._opener(path, "wb" if cfg.path is not None else "xb")
         except OSError as exc:
-            self._stop(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
+            self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
             return
+        f = McapFile(
+            stream,
+            path,
+            compression=cfg.compression,
+            chunk_size=cfg.chunk_kib * 1024,
+            library=f"edged {edged.__version__}",
+            metadata=self._metadata(),
+        )
         try:
-            self._file = McapFile(
-                stream,
-                path,
-                compression=cfg.compression,
-                chunk_size=cfg.chunk_kib * 1024,
-                library=f"edged {edged.__version__}",
-                metadata=self._metadata(),
-            )
+            f.start()
         except OSError as exc:
-            try:
-                stream.close()
-            except OSError:
-                pass
-            self._stop(_write_error_state(exc), f"{path}: {exc.strerror or exc}")
+            f.abandon()
+            if f.remove_if_empty(header_only=False):
+                self.ctx.health.count("files_removed_empty")
+            self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
             return
+        self._file = f
         self._started = now
         self.files.append(path)
         health.info["file"] = str(path)
@@ -279,7 +354,12 @@ class McapRecorder(OutputPlugin):
     def _maybe_rotate(self) -> None:
         cfg = self.config
         f = self._file
-        if f is None or cfg.directory is None:
+        if f is None:
+            return
+        if f.index_entries >= self._max_chunks:
+            self._rotate_now("index")
+            return
+        if cfg.directory is None:
             return
         if cfg.rotate_seconds is not None and self.ctx.clock.monotonic() - self._started >= cfg.rotate_seconds:
             self._rotate_now("duration")
@@ -306,8 +386,14 @@ class McapRecorder(OutputPlugin):
         try:
             f.finish()
         except OSError as exc:
-            self._stop(_write_error_state(exc), f"{f.path}: finishing: {exc.strerror or exc}")
+            state = _write_error_state(exc)
+            self._stopped = state
+            self._lose_pending()
+            if f.remove_if_empty():
+                self._forget(f.path)
+            self._failed_attempt(state, f"{f.path}: finishing: {exc.strerror or exc}")
             return False
+        self._confirm()
         if stop_reason is not None:
             self._stop(stop_reason)
         return True
@@ -316,10 +402,30 @@ class McapRecorder(OutputPlugin):
         """A write error: abandon the file as it is (recoverable) and stop recording."""
         f = self._file
         self._file = None
+        state = _write_error_state(exc)
+        self._stopped = state
+        self._lose_pending()
+        where = f.path if f is not None else "recording"
         if f is not None:
             f.abandon()
-        where = f.path if f is not None else "recording"
-        self._stop(_write_error_state(exc), f"{where}: write failed: {exc.strerror or exc}")
+            if f.remove_if_empty():
+                # Nothing but its header: no reader accepts it and nothing is lost.
+                self._forget(f.path)
+                self.ctx.log.info("event=recording-removed file=%s reason='held only its header'", f.path)
+        self._failed_attempt(state, f"{where}: write failed: {exc.strerror or exc}")
+
+    def _forget(self, path: Path) -> None:
+        if self.files and self.files[-1] == path:
+            self.files.pop()
+        self.ctx.health.count("files_removed_empty")
+
+    def _failed_attempt(self, state: str, message: str) -> None:
+        """Stop after an OS error, and wait longer before each new attempt in a row."""
+        self._failures += 1
+        cap = max(RETRY_MAX_SECONDS, self.config.retry_seconds)
+        wait = min(self.config.retry_seconds * 2.0 ** min(self._failures - 1, 60), cap)
+        self._next_check = self.ctx.clock.monotonic() + wait
+        self._stop(state, message)
 
     def _stop(self, state: str, message: str | None = None) -> None:
         health = self.ctx.health
@@ -330,8 +436,11 @@ class McapRecorder(OutputPlugin):
         if self.config.path is not None and self.files:
             # Reopening an exact file would truncate what it already holds.
             self._final = True
-        if state != "closed":
+        if state != "closed" and health.state != state:  # once per change of state
             health.count(f"stops.{state}")
-            when = "not retried: exact file" if self._final else f"retried every {self.config.retry_seconds:g} s"
+            if self._final:
+                when = "not retried: exact file"
+            else:
+                when = f"retried in {max(0.0, self._next_check - self.ctx.clock.monotonic()):g} s"
             self.ctx.log.warning("event=recording-stopped state=%s %s", state, when)
         health.set_state(state, message)
