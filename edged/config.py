@@ -10,7 +10,13 @@ Layout of a configuration file:
 
 Each plugin validates its own table with its own schema. Every error names the file,
 the key path and the reason (`edged.toml: inputs.gnss1.port: Input should be a valid
-integer`), and all errors of a file are reported at once.
+integer`), and all errors of a file are reported at once. No number may be `inf` or
+`nan`, and each is bounded: what `check-config` passes, `run` starts with.
+
+Across tables: a name is used by one input, estimator or output only (it is the
+source, estimate or output name in topics, health and logs), and no two enabled
+plugins may claim the same exclusive resource (`PluginConfig.claims`: two inputs
+listening on one UDP port, two reading one serial device).
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationErr
 
 from .backoff import Backoff
 
-from .plugin import PluginConfig
+from .plugin import Claim, PluginConfig
 from .records import KINDS
 from .registry import PluginNotFound, Registry
 
@@ -44,13 +50,21 @@ def known_kind(name: str) -> str:
 KindName = Annotated[str, AfterValidator(known_kind)]
 
 
+#: Longest wait between two attempts to (re)open a link, in seconds: a day.
+MAX_BACKOFF = 86_400.0
+#: Longest a watchdog may wait for a silent link, in seconds: a day.
+MAX_WATCHDOG = 86_400.0
+
+
 class ReconnectSettings(BaseModel):
     """Mixin for a plugin that (re)opens a link: the delays between attempts."""
 
+    model_config = ConfigDict(allow_inf_nan=False)
+
     #: Seconds before the first reconnect attempt; doubled after each failure ...
-    backoff_initial: float = Field(0.5, gt=0)
+    backoff_initial: float = Field(0.5, gt=0, le=MAX_BACKOFF)
     #: ... up to this many seconds.
-    backoff_max: float = Field(30.0, gt=0)
+    backoff_max: float = Field(30.0, gt=0, le=MAX_BACKOFF)
 
     @field_validator("backoff_max")
     @classmethod
@@ -74,16 +88,16 @@ class ConfigError(Exception):
 
 
 class CoreConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     vessel_id: str = "vessel"
     log_level: Literal["debug", "info", "warning", "error"] = "info"
     #: Also log to this file (reopened on SIGHUP); stderr is always used.
     log_file: str | None = None
     #: Seconds between health snapshots sent to the outputs.
-    health_interval: float = Field(1.0, gt=0)
-    #: Seconds the shutdown may take before outputs are abandoned.
-    shutdown_timeout: float = Field(5.0, gt=0)
+    health_interval: float = Field(1.0, gt=0, le=3600.0)
+    #: Seconds the shutdown may take before outputs are abandoned (at most 10 min).
+    shutdown_timeout: float = Field(5.0, gt=0, le=600.0)
 
     @field_validator("vessel_id")
     @classmethod
@@ -94,10 +108,10 @@ class CoreConfig(BaseModel):
 
 
 class RouterConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     #: Seconds of data time a preferred source may be silent before the next takes over.
-    failover_timeout: float = Field(2.0, gt=0)
+    failover_timeout: float = Field(2.0, gt=0, le=86_400.0)
     #: Per measurement kind, the sources in order of preference.
     priority: dict[str, list[str]] = Field(default_factory=dict)
 
@@ -191,9 +205,59 @@ def parse_config(
                 getattr(cfg, role)[name] = cls.Config.model_validate(body, context=ctx)
             except ValidationError as exc:
                 errors += _pydantic_errors(where, exc)
+    errors += _name_collisions(data)
+    errors += _claim_collisions(cfg)
     if errors:
         raise ConfigError(file, errors)
     return cfg
+
+
+def _name_collisions(data: dict[str, Any]) -> list[tuple[str, str]]:
+    """One name, two roles: `inputs.x and outputs.x: ...` (a name is one thing)."""
+    first: dict[str, str] = {}
+    out: list[tuple[str, str]] = []
+    for role in ROLES:
+        section = data.get(role)
+        if not isinstance(section, dict):
+            continue
+        for name in section:
+            where = f"{role}.{name}"
+            if name in first:
+                out.append((
+                    f"{first[name]} and {where}",
+                    f"the name {name!r} is used twice: an input, an estimator and an output "
+                    "each need their own (it is the source, estimate or output name in topics, "
+                    "health and logs)",
+                ))
+            else:
+                first[name] = where
+    return out
+
+
+def _overlap(a: tuple[str, ...], b: tuple[str, ...]) -> bool:
+    return len(a) == len(b) and all(x == y or x == "*" or y == "*" for x, y in zip(a, b))
+
+
+def _claim_collisions(cfg: Config) -> list[tuple[str, str]]:
+    """Two enabled plugins claiming one exclusive resource, named by both keys."""
+    held: list[tuple[str, Claim]] = []
+    out: list[tuple[str, str]] = []
+    for role in ROLES:
+        for name, c in getattr(cfg, role).items():
+            if not c.enabled:
+                continue
+            for claim in c.claims():
+                where = f"{role}.{name}.{claim.key}"
+                for other_where, other in held:
+                    if _overlap(other.resource, claim.resource):
+                        if other.text == claim.text:
+                            reason = f"both {claim.text}"
+                        else:
+                            reason = f"both want the same resource ({other.text}; {claim.text})"
+                        out.append((f"{other_where} and {where}", reason))
+                        break
+                held.append((where, claim))
+    return out
 
 
 def load_config(path: str | Path, registry: Registry) -> Config:

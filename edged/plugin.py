@@ -23,7 +23,7 @@ import argparse
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Literal, Protocol, runtime_checkable
+from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Literal, NamedTuple, Protocol, runtime_checkable
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -32,6 +32,7 @@ from .health import ComponentHealth
 from .records import Estimate, Measurement, RawRecord
 
 __all__ = [
+    "Claim",
     "PluginConfig",
     "InputConfig",
     "EstimatorConfig",
@@ -48,13 +49,40 @@ __all__ = [
 ]
 
 
-class PluginConfig(BaseModel):
-    """Base of every plugin's configuration section. Unknown keys are errors."""
+class Claim(NamedTuple):
+    """A resource a plugin instance holds for itself while it runs (`PluginConfig.claims`).
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    Two enabled plugins whose claims have resources of the same length, equal in every
+    place (a `"*"` matches anything in its place: a wildcard address), cannot both run;
+    the configuration is refused naming both keys.
+    """
+
+    #: The key of the plugin's table that names the resource: "port", "device", "listen".
+    key: str
+    #: What is held, e.g. ("udp", "127.0.0.1", "10110") or ("serial", "/dev/ttyUSB0").
+    resource: tuple[str, ...]
+    #: The message's words for it: "listen on udp 127.0.0.1:10110".
+    text: str
+
+
+class PluginConfig(BaseModel):
+    """Base of every plugin's configuration section. Unknown keys are errors, and so are
+    `inf` and `nan` in any number (a plugin bounds each of its numbers as well)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     type: str
     enabled: bool = True
+
+    def claims(self) -> list[Claim]:
+        """The resources this instance holds exclusively (a UDP port it listens on, a
+        serial device it reads); none by default. The core knows no transport: it only
+        compares the claims of all enabled plugins and refuses two that collide.
+
+        Cooperative: a configuration mixin placed after this class in the bases (the
+        zenoh session settings) may define `claims` too, and is asked here."""
+        nxt = getattr(super(), "claims", None)
+        return list(nxt()) if nxt is not None else []
 
 
 class InputConfig(PluginConfig):
@@ -89,7 +117,8 @@ class EstimatorConfig(PluginConfig):
 
 
 class OutputConfig(PluginConfig):
-    queue_size: int = 100_000
+    #: Records queued for the output before new ones are dropped (counted `overflow`).
+    queue_size: int = Field(100_000, ge=1, le=10_000_000)
 
 
 @dataclass

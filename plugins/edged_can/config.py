@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from edged.config import KindName, ReconnectSettings
+from edged.config import MAX_WATCHDOG, KindName, ReconnectSettings
 from edged.plugin import InputConfig
 from edged.records import KINDS
 
@@ -52,12 +52,19 @@ class SignalMap(BaseModel):
 
 
 class CanConfig(InputConfig, ReconnectSettings):
-    """One CAN bus: transport, DBC, signal mappings, NMEA 2000 source names, recovery."""
+    """One CAN bus: transport, DBC, signal mappings, NMEA 2000 source names, recovery.
+
+    It claims no resource (`claims`): SocketCAN and python-can's virtual bus give every
+    frame to every socket open on the channel, so two inputs on one bus take nothing
+    from each other; each decodes all of it under its own source names (for instance
+    a second input with a site DBC for proprietary frames).
+    """
 
     interface: Literal["socketcan", "virtual"] = "socketcan"
     #: SocketCAN interface (`can0`) or the virtual bus's channel name.
     channel: str = "can0"
-    bitrate: int = Field(250_000, gt=0)
+    #: Bits per second (CAN FD data phases reach a few Mbit/s).
+    bitrate: int = Field(250_000, gt=0, le=16_000_000)
     #: Site DBC; relative paths are relative to the configuration file. Default: the
     #: reference DBC of DESIGN §5.
     dbc: Path | None = Field(None, validate_default=True)
@@ -74,7 +81,7 @@ class CanConfig(InputConfig, ReconnectSettings):
     #: Magnetic variation (degrees, east +) when no PGN gives one.
     magnetic_variation_deg: float | None = Field(None, ge=-180.0, le=180.0)
     #: Seconds without any frame before the bus is closed and reopened.
-    watchdog: float = Field(10.0, gt=0)
+    watchdog: float = Field(10.0, gt=0, le=MAX_WATCHDOG)
 
     @field_validator("dbc")
     @classmethod

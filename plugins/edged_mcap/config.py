@@ -12,6 +12,9 @@ from edged.plugin import OutputConfig
 __all__ = ["McapConfig", "GIB"]
 
 GIB = 1 << 30
+#: Bounds of the sizes (numbers are finite and bounded, as in every configuration).
+MAX_BYTES = 1 << 50  # 1 PiB
+MAX_GIB = float(1 << 20)  # 1 PiB
 
 
 class McapConfig(OutputConfig):
@@ -27,17 +30,17 @@ class McapConfig(OutputConfig):
     path: Path | None = None
     directory: Path | None = None
     #: Start a new file when the current one reaches this size (bytes).
-    rotate_bytes: int | None = Field(256 * 1024 * 1024, gt=0)
-    #: Start a new file after this many seconds.
-    rotate_seconds: float | None = Field(3600.0, gt=0)
+    rotate_bytes: int | None = Field(256 * 1024 * 1024, gt=0, le=MAX_BYTES)
+    #: Start a new file after this many seconds (at most 31 days).
+    rotate_seconds: float | None = Field(3600.0, gt=0, le=31 * 86_400.0)
     #: Retention: keep at most this many files (the newest) ...
-    keep_files: int | None = Field(None, ge=1)
+    keep_files: int | None = Field(None, ge=1, le=10_000_000)
     #: ... and at most this many GiB of files (the newest; the current one always stays).
-    keep_gib: float | None = Field(None, gt=0)
+    keep_gib: float | None = Field(None, gt=0, le=MAX_GIB)
     #: Stop recording (never the daemon) while the disk has less free space than this.
-    min_free_gib: float = Field(1.0, ge=0)
+    min_free_gib: float = Field(1.0, ge=0, le=MAX_GIB)
     #: Seconds between checks of free space and, once stopped, attempts to resume.
-    retry_seconds: float = Field(10.0, gt=0)
+    retry_seconds: float = Field(10.0, gt=0, le=3600.0)
     compression: Literal["zstd", "lz4", "none"] = "zstd"
     #: Chunk size bound: a power loss costs at most one chunk not yet written.
     chunk_kib: int = Field(64, ge=1, le=1024)

@@ -7,12 +7,14 @@ transport is 'tcp'` rather than a message about the table as a whole.
 
 from __future__ import annotations
 
+import ipaddress
+import os
 from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
-from edged.config import ReconnectSettings
-from edged.plugin import InputConfig
+from edged.config import MAX_WATCHDOG, ReconnectSettings
+from edged.plugin import Claim, InputConfig
 
 Transport = Literal["serial", "tcp", "udp", "file"]
 ChecksumPolicy = Literal["require", "allow-missing", "ignore"]
@@ -43,7 +45,7 @@ class Nmea0183Config(InputConfig, ReconnectSettings):
     path: str | None = Field(None, validate_default=True)
     checksum: ChecksumPolicy = "require"
     #: Seconds a live link may stay open without a byte before it is reopened.
-    watchdog: float = Field(10.0, gt=0)
+    watchdog: float = Field(10.0, gt=0, le=MAX_WATCHDOG)
     #: Magnetic variation in degrees (east positive), used when no sentence gives one.
     variation: float | None = Field(None, ge=-180.0, le=180.0)
     #: Emit the ground part of VBW as `velocity_ground` (off: GNSS is the better source).
@@ -56,3 +58,33 @@ class Nmea0183Config(InputConfig, ReconnectSettings):
         if v is None and transport is not None and info.field_name in REQUIRED_KEYS[transport]:
             raise ValueError(f"required when transport is {transport!r}")
         return v
+
+    def claims(self) -> list[Claim]:
+        """A UDP port it listens on, a serial device it reads: one input each.
+
+        Two UDP listeners on one port would each get a share of the datagrams (or the
+        second would not start); two readers of one tty steal bytes from each other.
+        A TCP input is a client (a multiplexer serves many) and a file is only read.
+        """
+        if self.transport == "udp" and self.port is not None:
+            host = _udp_host(self.bind)
+            shown = f"[{self.bind}]" if ":" in self.bind else self.bind
+            return [Claim("port", ("udp", host, str(self.port)), f"listen on udp {shown}:{self.port}")]
+        if self.transport == "serial" and self.device and "://" not in self.device:
+            # pyserial URLs (socket://, loop://, rfc2217://) hold no device of their own.
+            return [Claim("device", ("serial", os.path.realpath(self.device)), f"read serial {self.device}")]
+        return []
+
+
+#: Addresses that listen on every address of the port.
+_ANY = {"", "0.0.0.0", "::", "*"}
+
+
+def _udp_host(bind: str) -> str:
+    """The bind address as compared between inputs: `*` for a wildcard."""
+    if bind in _ANY:
+        return "*"
+    try:
+        return ipaddress.ip_address(bind).compressed
+    except ValueError:
+        return bind.lower()

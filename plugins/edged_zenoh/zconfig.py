@@ -29,6 +29,8 @@ import json5
 import zenoh
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
+from edged.plugin import Claim
+
 __all__ = [
     "DEFAULT_PORT",
     "DEFAULT_LISTEN",
@@ -53,6 +55,12 @@ DEFAULT_LISTEN = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 _ENDPOINT_RE = re.compile(r"^[a-z0-9]+/[^\s]+$")
 _TCP_RE = re.compile(r"^(?P<proto>tcp|tls)/(?P<host>\[[^\]]+\]|[^:/\[\]]+):(?P<port>\d+)(?P<rest>[#?].*)?$")
 _WILD_RE = re.compile(r"[*$?#]")
+#: Any endpoint with an address and a port, and the transport protocol its port is of.
+_PORT_RE = re.compile(r"^(?P<proto>[a-z0-9]+)/(?P<host>\[[^\]]+\]|[^:/\[\]]+):(?P<port>\d+)(?P<rest>[#?/].*)?$")
+_PORT_PROTO = {"tcp": "tcp", "tls": "tcp", "ws": "tcp", "udp": "udp", "quic": "udp"}
+_ANY_HOSTS = {"0.0.0.0", "::", "[::]", "*"}
+#: Longest wait between two session open attempts, in seconds: a day.
+MAX_RETRY = 86_400.0
 
 
 class ZenohConfigError(ValueError):
@@ -147,7 +155,7 @@ class TlsSettings(BaseModel):
 class ZenohSettings(BaseModel):
     """The session settings every zenoh plugin of edged accepts (a configuration mixin)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     #: `peer` (reachable without any router) or `client` (through a router or peer).
     #: Unset, the plugin's own default applies (the output: peer; the input: client).
@@ -162,8 +170,8 @@ class ZenohSettings(BaseModel):
     #: When a listen port is taken, listen on a free port instead (logged, in health).
     listen_fallback: bool = True
     #: Seconds before the first retry of a failed session open, doubled up to retry_max.
-    retry_initial: float = Field(0.5, gt=0)
-    retry_max: float = Field(30.0, gt=0)
+    retry_initial: float = Field(0.5, gt=0, le=MAX_RETRY)
+    retry_max: float = Field(30.0, gt=0, le=MAX_RETRY)
 
     @field_validator("listen", "connect")
     @classmethod
@@ -171,7 +179,41 @@ class ZenohSettings(BaseModel):
         for ep in v or ():
             if not _ENDPOINT_RE.match(ep):
                 raise ValueError(f"{ep!r} is not a zenoh endpoint like 'tcp/127.0.0.1:7447'")
+            m = _PORT_RE.match(ep)
+            if m is not None and not 0 <= int(m["port"]) <= 65535:
+                raise ValueError(f"{ep!r}: port {int(m['port'])} outside 0..65535")
         return v
+
+    @field_validator("retry_max")
+    @classmethod
+    def _retry_order(cls, v: float, info: ValidationInfo) -> float:
+        initial = info.data.get("retry_initial")
+        if initial is not None and v < initial:
+            raise ValueError(f"must be >= retry_initial ({initial})")
+        return v
+
+    def claims(self) -> list[Claim]:
+        """The ports of the `listen` endpoints it names.
+
+        Two sessions of one configuration naming one endpoint never both get it: the
+        second fails, or with `listen_fallback` listens on some free port no peer
+        knows of (the fallback is for a port held outside edged). Only the endpoints
+        listed here are known before start (not those of a `zenoh_config` file, nor a
+        plugin's default); a port 0 asks for any free port and claims nothing.
+        """
+        out: list[Claim] = []
+        nxt = getattr(super(), "claims", None)
+        if nxt is not None:
+            out += nxt()
+        for i, ep in enumerate(self.listen or ()):
+            m = _PORT_RE.match(ep)
+            proto = _PORT_PROTO.get(m["proto"]) if m else None
+            if m is None or proto is None or int(m["port"]) == 0:
+                continue
+            host = m["host"]
+            host = "*" if host in _ANY_HOSTS else host.strip("[]").lower()
+            out.append(Claim(f"listen.{i}", (proto, host, m["port"]), f"listen on {ep}"))
+        return out
 
     @field_validator("zenoh_config")
     @classmethod
