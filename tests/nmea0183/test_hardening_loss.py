@@ -203,3 +203,85 @@ def _rmem_max() -> int:
             return 2 * int(f.read())
     except OSError:
         return 0
+
+
+# -- serial ---------------------------------------------------------------------------
+async def no_wait(_: float) -> None:
+    await asyncio.sleep(0)
+
+
+def test_serial_keeps_what_the_device_sent_before_the_port_opened(event_health):
+    """Sentences that wait in the port's input buffer are not flushed by the open."""
+
+    async def main() -> None:
+        master, slave = os.openpty()
+        tty.setraw(master)
+        tty.setraw(slave)  # a serial line, as the previous session left it
+        device = os.ttyname(slave)
+        os.write(master, GGA + b"\r\n" + HDT + b"\r\n")  # before anyone opens the device
+        plugin, sink = make(event_health, no_wait, transport="serial", device=device, baudrate=38400)
+        task = asyncio.create_task(plugin.run())
+        try:
+            await sink.wait_raw(2)
+        finally:
+            await stop(task)
+            os.close(slave)
+            os.close(master)
+        assert [r.data for r in sink.raw] == [GGA, HDT]
+
+    asyncio.run(main())
+
+
+def test_serial_reopen_keeps_the_sentences_sent_while_closed(event_health):
+    """The watchdog closes a silent port; what arrives before the reopen is read."""
+
+    async def main() -> None:
+        master, slave = os.openpty()
+        tty.setraw(master)
+        tty.setraw(slave)
+        device = os.ttyname(slave)
+        waits = 0
+
+        async def sleep(_: float) -> None:  # the backoff: the port is closed now
+            nonlocal waits
+            waits += 1
+            if waits == 1:
+                os.write(master, HDT + b"\r\n" + GGA + b"\r\n")
+            await asyncio.sleep(0)
+
+        plugin, sink = make(event_health, sleep, transport="serial", device=device, baudrate=38400, watchdog=0.2)
+        task = asyncio.create_task(plugin.run())
+        try:
+            await event_health.wait_state("connected")
+            os.write(master, GGA + b"\r\n")
+            await sink.wait_raw(1)
+            await event_health.wait_state("stale")  # silent: closed, then reopened
+            await sink.wait_raw(3)
+        finally:
+            await stop(task)
+            os.close(slave)
+            os.close(master)
+        assert [r.data for r in sink.raw] == [GGA, HDT, GGA]
+        assert event_health.counters["connects"] >= 2
+
+    asyncio.run(main())
+
+
+def test_serial_user_flush_still_flushes(tmp_path):
+    from edged_nmea0183.transports.serial import open_keeping_input
+
+    master, slave = os.openpty()
+    tty.setraw(master)
+    tty.setraw(slave)
+    try:
+        os.write(master, HDT + b"\r\n")
+        port = open_keeping_input(os.ttyname(slave), 38400)
+        try:
+            assert port.in_waiting == len(HDT) + 2  # kept by the open
+            port.reset_input_buffer()
+            assert port.in_waiting == 0
+        finally:
+            port.close()
+    finally:
+        os.close(slave)
+        os.close(master)
