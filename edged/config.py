@@ -21,6 +21,7 @@ listening on one UDP port, two reading one serial device).
 
 from __future__ import annotations
 
+import os
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -48,6 +49,17 @@ def known_kind(name: str) -> str:
 
 #: A configuration value naming a measurement kind (plugins map signals and keys onto one).
 KindName = Annotated[str, AfterValidator(known_kind)]
+
+
+def valid_name(name: str) -> str:
+    """A source, estimate or plugin name (one Zenoh key segment), or a ValueError."""
+    if not _NAME_RE.match(name):
+        raise ValueError(f"{name!r}: letters, digits, '_', '-' and '.' only (it is a Zenoh key segment)")
+    return name
+
+
+#: A configuration value that becomes a source name (or part of one) in topics and health.
+SourceName = Annotated[str, AfterValidator(valid_name)]
 
 
 #: Longest wait between two attempts to (re)open a link, in seconds: a day.
@@ -98,6 +110,21 @@ class CoreConfig(BaseModel):
     health_interval: float = Field(1.0, gt=0, le=3600.0)
     #: Seconds the shutdown may take before outputs are abandoned (at most 10 min).
     shutdown_timeout: float = Field(5.0, gt=0, le=600.0)
+
+    @field_validator("log_file")
+    @classmethod
+    def _log_file(cls, v: str | None) -> str | None:
+        """The file `run` opens before anything starts: a missing folder is an error now."""
+        if not v:
+            return v
+        p = Path(v)
+        if p.is_dir():
+            raise ValueError(f"{v!r} is a directory")
+        if not p.parent.is_dir():
+            raise ValueError(f"{v!r}: no directory {str(p.parent)!r}")
+        if not os.access(p if p.exists() else p.parent, os.W_OK):
+            raise ValueError(f"{v!r} cannot be written (permission denied)")
+        return v
 
     @field_validator("vessel_id")
     @classmethod

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from edged.config import MAX_WATCHDOG, KindName, ReconnectSettings
+from edged.config import MAX_WATCHDOG, KindName, ReconnectSettings, SourceName, valid_name
 from edged.plugin import InputConfig
 from edged.records import KINDS
 
@@ -45,9 +45,10 @@ class SignalMap(BaseModel):
     @classmethod
     def _source(cls, v: str) -> str:
         try:
-            v.format(bus="b", message="m")
+            example = v.format(bus="b", message="m")
         except (KeyError, IndexError, ValueError) as exc:
             raise ValueError(f"only {{bus}} and {{message}} may be filled in ({exc})") from None
+        valid_name(example)  # the source is a Zenoh key segment: no '/', no spaces
         return v
 
 
@@ -74,10 +75,10 @@ class CanConfig(InputConfig, ReconnectSettings):
         validate_default=True,
     )
     #: NMEA 2000 source address -> source name.
-    source_names: dict[int, str] = Field(default_factory=dict)
+    source_names: dict[int, SourceName] = Field(default_factory=dict)
     #: NMEA 2000 ISO NAME (64-bit, hex as in `0xc0788c00e7e04312`) -> source name;
     #: follows the device when its address changes (address claims, PGN 60928).
-    iso_names: dict[str, str] = Field(default_factory=dict)
+    iso_names: dict[str, SourceName] = Field(default_factory=dict)
     #: Magnetic variation (degrees, east +) when no PGN gives one.
     magnetic_variation_deg: float | None = Field(None, ge=-180.0, le=180.0)
     #: Seconds without any frame before the bus is closed and reopened.

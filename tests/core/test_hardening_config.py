@@ -92,6 +92,28 @@ BAD: list[tuple[str, str, list[tuple[str, str]]]] = [
     ("mcap-keep-inf", "MCAP keep_gib = inf\n", [("outputs.rec.keep_gib", "finite number")]),
     ("mcap-rotate-nan", "MCAP rotate_seconds = nan\n", [("outputs.rec.rotate_seconds", "finite number")]),
     (
+        "log-file-no-folder",
+        '[edged]\nlog_file = "TMP/nope/edged.log"\n',
+        [("edged.log_file", "no directory 'TMP/nope'")],
+    ),
+    ("log-file-folder", '[edged]\nlog_file = "TMP"\n', [("edged.log_file", "is a directory")]),
+    (
+        "can-source-name-slash",
+        f'[inputs.c]\n{CAN}[inputs.c.source_names]\n28 = "gy/ro"\n',
+        [("inputs.c.source_names.28", "Zenoh key segment")],
+    ),
+    (
+        "can-iso-name-space",
+        f'[inputs.c]\n{CAN}[inputs.c.iso_names]\n"0xc0788c00e7e04312" = "gyro 2"\n',
+        [("inputs.c.iso_names.0xc0788c00e7e04312", "Zenoh key segment")],
+    ),
+    (
+        "can-source-template-slash",
+        f'[inputs.c]\n{CAN}[[inputs.c.signals]]\nmessage = "DraftMark"\nkind = "draft"\n'
+        'fields = {}\nsource = "{bus}/{message}"\n',
+        [("inputs.c.signals.0.source", "Zenoh key segment")],
+    ),
+    (
         "udp-same-port",
         f"[inputs.a]\n{UDP}port = 10110\n[inputs.b]\n{UDP}port = 10110\n",
         [("inputs.a.port and inputs.b.port", "both listen on udp 127.0.0.1:10110")],
@@ -129,7 +151,7 @@ BAD: list[tuple[str, str, list[tuple[str, str]]]] = [
 
 
 def _text(template: str, tmp: Path) -> str:
-    return template.replace("MCAP", mcap(tmp))
+    return template.replace("MCAP", mcap(tmp)).replace("TMP", str(tmp))
 
 
 @pytest.fixture
@@ -156,6 +178,7 @@ def test_check_config_and_run_refuse_alike(tmp_path, capsys, no_start, name, tem
     assert "Traceback" not in checked.err + checked.out + ran.err + ran.out
     assert not (tmp_path / "rec").exists()  # nothing started, nothing created
     for key, reason in expected:
+        reason = reason.replace("TMP", str(tmp_path))
         line = next((ln for ln in checked.err.splitlines() if ln.startswith(f"{path}: {key}: ")), None)
         assert line is not None, (key, checked.err)
         assert reason in line, (reason, line)
@@ -172,6 +195,8 @@ GOOD: list[tuple[str, str]] = [
         "zenoh-port-0",
         f'[inputs.zi]\ntype = "zenoh"\nlisten = ["tcp/127.0.0.1:0"]\n[outputs.z]\n{ZOUT}listen = ["tcp/127.0.0.1:0"]\n',
     ),
+    ("log-file-in-a-folder", '[edged]\nlog_file = "TMP/edged.log"\n'),
+    ("can-names", f'[inputs.c]\n{CAN}[inputs.c.source_names]\n28 = "gyro-2.aft_1"\n'),
     ("bounds-inclusive", "[edged]\nshutdown_timeout = 600\nhealth_interval = 3600\nMCAP queue_size = 10000000\n"),
 ]
 
