@@ -13,18 +13,34 @@ __all__ = ["flatten", "cell"]
 
 
 def flatten(obj: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """`obj` with nested objects' keys joined by dots, in the order a depth-first walk
+    meets them. Walked with a stack, not recursion: a payload of a foreign or damaged
+    file may nest as deep as the JSON parser allows, deeper than Python's call stack."""
     out: dict[str, Any] = {}
-    for k, v in obj.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict) and v:
-            out.update(flatten(v, key + "."))
-        elif isinstance(v, dict):
-            out[key] = None
-        elif isinstance(v, list):
-            out[key] = json.dumps(v, separators=(",", ":"))
+    stack = [(prefix, iter(obj.items()))]
+    while stack:
+        pre, items = stack[-1]
+        for k, v in items:
+            key = f"{pre}{k}"
+            if isinstance(v, dict) and v:
+                stack.append((key + ".", iter(v.items())))
+                break
+            if isinstance(v, dict):
+                out[key] = None
+            elif isinstance(v, list):
+                out[key] = _list_cell(v)
+            else:
+                out[key] = v
         else:
-            out[key] = v
+            stack.pop()
     return out
+
+
+def _list_cell(v: list[Any]) -> str:
+    try:
+        return json.dumps(v, separators=(",", ":"))
+    except RecursionError:  # parsed near the parser's depth limit, too deep to write again
+        return "[nested too deep]"
 
 
 def cell(v: Any) -> Any:

@@ -21,15 +21,28 @@ __all__ = ["Series", "PlotData", "collect", "local_xy", "EARTH_RADIUS"]
 EARTH_RADIUS = 6_371_008.8  # m, mean radius: plenty for a local picture
 
 
+def _num(v: Any) -> float | None:
+    """A JSON number as a finite float; None for anything else (a bool, NaN, infinity,
+    or an integer too large for a float, which a foreign or damaged file may hold)."""
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return None
+    try:
+        f = float(v)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
+
+
 @dataclass
 class Series:
     t: list[float] = field(default_factory=list)
     y: list[float] = field(default_factory=list)
 
-    def add(self, t: float, y: Any) -> None:
-        if isinstance(y, (int, float)) and not isinstance(y, bool) and math.isfinite(y):
+    def add(self, t: float, y: Any, scale: float = 1.0) -> None:
+        v = _num(y)
+        if v is not None and math.isfinite(v * scale):
             self.t.append(t)
-            self.y.append(float(y))
+            self.y.append(v * scale)
 
 
 @dataclass
@@ -87,21 +100,21 @@ def _take(data: PlotData, family: str, src: str, t: float, flat: dict[str, Any])
         if "*" in fld:
             head, tail = fld.split("*", 1)
             for k, v in flat.items():
-                if k.startswith(head) and k.endswith(tail) and isinstance(v, (int, float)):
+                if k.startswith(head) and k.endswith(tail) and _num(v) is not None:
                     mark = k[len(head) : len(k) - len(tail)]
-                    data.series[panel].setdefault(label.format(mark=mark, src=src), Series()).add(t, v * scale)
+                    data.series[panel].setdefault(label.format(mark=mark, src=src), Series()).add(t, v, scale)
             continue
         v = flat.get(fld)
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            data.series[panel].setdefault(label.format(src=src), Series()).add(t, v * scale)
+        if _num(v) is not None:
+            data.series[panel].setdefault(label.format(src=src), Series()).add(t, v, scale)
 
 
 def _track(data: PlotData, label: str, payload: dict[str, Any]) -> None:
-    lat, lon = payload.get("lat"), payload.get("lon")
-    if isinstance(lat, (int, float)) and isinstance(lon, (int, float)) and math.isfinite(lat + lon):
+    lat, lon = _num(payload.get("lat")), _num(payload.get("lon"))
+    if lat is not None and lon is not None and abs(lat) <= 90.0 and abs(lon) <= 180.0:
         lats, lons = data.tracks.setdefault(label, ([], []))
-        lats.append(float(lat))
-        lons.append(float(lon))
+        lats.append(lat)
+        lons.append(lon)
 
 
 def collect(path: Path) -> PlotData:
@@ -114,7 +127,7 @@ def collect(path: Path) -> PlotData:
                 continue
             try:
                 payload = json.loads(msg.data)
-            except ValueError:
+            except (ValueError, RecursionError):  # not JSON, or nested beyond any payload's depth
                 continue
             if not isinstance(payload, dict):
                 continue

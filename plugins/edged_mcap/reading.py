@@ -1,28 +1,63 @@
-"""Reading MCAP files record by record, finished or not.
+"""Reading MCAP files record by record, finished, unfinished or damaged.
 
 A recording cut short by a power loss or `kill -9` has no summary and may end inside
-a record; `mcap.reader.make_reader` refuses it. Here the file is read front to back
-with the `mcap` package's stream reader: every complete chunk is used, a chunk that
-fails its CRC or decompression is skipped and counted, and the first incomplete
-record ends the file (counted as truncation) instead of raising.
+a record; `mcap.reader.make_reader` refuses it. Here the file is read front to back:
+every complete chunk is used, a chunk that fails its CRC or decompression is skipped
+and counted, and the first incomplete record ends the file (counted as truncation)
+instead of raising.
+
+Damaged or foreign files must not cost more memory than they hold: every length field
+is checked before anything is allocated for it. A record is read into memory only
+when its declared length is within `max_record` (1 GiB) and it is then read in pieces,
+so that a length beyond the end of the file costs what the file holds, not what the
+field claims; the record's own fields are parsed from those bytes only, never from
+the file; a chunk is decompressed only when its declared uncompressed size is within
+`max_record`, and never into more than it declared. A length that cannot be true
+stops the reading there (`ReadReport.error`, "damaged: ..."): what came before it
+has been read.
 """
 
 from __future__ import annotations
 
+import io
 import struct
+import zlib
 from dataclasses import dataclass, field
-from typing import IO, Iterator
+from typing import IO, Callable, Iterator
 
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Channel, Chunk, Footer, McapRecord, Message, Schema
-from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.opcode import Opcode
+from mcap.records import (
+    Attachment,
+    Channel,
+    Chunk,
+    DataEnd,
+    Footer,
+    Header,
+    McapRecord,
+    Message,
+    Metadata,
+    Schema,
+)
 
-__all__ = ["ReadReport", "iter_records", "iter_messages", "MAGIC"]
+__all__ = ["ReadReport", "NoRecords", "iter_records", "iter_messages", "MAGIC", "MAX_RECORD"]
 
 MAGIC = b"\x89MCAP0\r\n"
 
-#: What an incomplete record at the end of a file raises while being parsed.
-_TRUNCATION = (EndOfFile, struct.error, UnicodeDecodeError)
+#: The largest record, and the largest uncompressed chunk, that is read (bytes). The
+#: recorder writes chunks of at most 1 MiB; other writers' chunks are a few MiB.
+MAX_RECORD = 1 << 30
+
+#: Bytes read (or decompressed) at a time: what a length beyond the end costs at most.
+_STEP = 1 << 20
+
+#: Reasons kept per kind of damage (the counts go on).
+_KEEP_ERRORS = 10
+
+
+class NoRecords(McapError):
+    """A file that starts with the MCAP magic but holds not one readable record."""
 
 
 @dataclass
@@ -40,54 +75,255 @@ class ReadReport:
     summary: bool = False
     #: The file ends inside a record (unfinished write).
     truncated: bool = False
-    #: A record that is neither complete nor at the end: reading stopped there.
+    #: Why reading stopped before the end ("damaged: ..." for a length that cannot
+    #: be true); None when it did not.
     error: str | None = None
     bad_chunk_errors: list[str] = field(default_factory=list)
+    #: Records outside chunks (schema, channel, message, metadata, attachment, header)
+    #: read whole but not parseable: skipped, reading goes on after them.
+    bad_records: int = 0
+    bad_record_errors: list[str] = field(default_factory=list)
+
+    @property
+    def damaged(self) -> bool:
+        """Something was skipped or reading stopped on damage (not mere truncation)."""
+        return bool(self.bad_chunks or self.bad_records or self.error)
 
     @property
     def healthy(self) -> bool:
-        return self.finished and self.bad_chunks == 0 and self.error is None
+        return self.finished and not self.damaged
 
 
-def _chunk_records(chunk: Chunk, report: ReadReport) -> list[McapRecord]:
+class _Damage(ValueError):
+    """A record that cannot be what its fields say (the reason)."""
+
+
+class _Body(ReadDataStream):
+    """Fields of one record parsed from its own bytes: reading past them is an error.
+
+    The `mcap` record classes read their length-prefixed fields from the stream they
+    are given; over the record's bytes (not the file) a length field that lies can
+    only fail, never allocate.
+    """
+
+    def __init__(self, data: bytes) -> None:
+        super().__init__(io.BytesIO(data))
+        self._size = len(data)
+
+    def read(self, length: int) -> bytes:
+        if length == 0:
+            return b""
+        left = self._size - self._count
+        if not 0 < length <= left:
+            raise _Damage(f"a field of {length} bytes at record byte {self._count}, {left} remain")
+        self._count += length
+        return self._stream.read(length)
+
+
+def _read(stream: IO[bytes], n: int) -> bytes:
+    """Up to `n` bytes (fewer only at the end), never allocating much more than read."""
+    if n <= _STEP:
+        first = stream.read(n)
+        if len(first) == n or not first:
+            return first
+        parts = [first]
+        left = n - len(first)
+    else:
+        parts = []
+        left = n
+    while left > 0:
+        b = stream.read(min(left, _STEP))
+        if not b:
+            break
+        parts.append(b)
+        left -= len(b)
+    return b"".join(parts)
+
+
+def _name(opcode: int) -> str:
     try:
-        recs = breakup_chunk(chunk, validate_crc=True)
+        return Opcode(opcode).name
+    except ValueError:
+        return f"unknown (opcode 0x{opcode:02x})"
+
+
+# -- chunks -----------------------------------------------------------------------------
+def _pieces(read: Callable[[int], bytes], size: int) -> bytes:
+    """Decompressed output, `size` bytes exactly, asking `read(n)` for pieces."""
+    parts: list[bytes] = []
+    total = 0
+    while True:
+        b = read(min(_STEP, size + 1 - total))
+        if not b:
+            break
+        parts.append(b)
+        total += len(b)
+        if total > size:
+            raise _Damage(f"decompresses to more than its declared {size} bytes")
+    if total != size:
+        raise _Damage(f"decompresses to {total} bytes, not its declared {size}")
+    return b"".join(parts)
+
+
+def _zstd(data: bytes, size: int) -> bytes:
+    import zstandard
+
+    with zstandard.ZstdDecompressor().stream_reader(data) as r:
+        return _pieces(r.read, size)
+
+
+def _lz4(data: bytes, size: int) -> bytes:
+    import lz4.frame
+
+    d = lz4.frame.LZ4FrameDecompressor()
+    pending = [data]
+
+    def read(n: int) -> bytes:
+        if d.eof:
+            return b""
+        src = pending.pop() if pending else b""
+        out: bytes = d.decompress(src, max_length=n)
+        if not out and not src and d.needs_input:
+            raise _Damage("lz4 data ends early")
+        return out
+
+    return _pieces(read, size)
+
+
+_DECOMPRESS: dict[str, Callable[[bytes, int], bytes]] = {"zstd": _zstd, "lz4": _lz4}
+
+
+def _chunk_data(chunk: Chunk, max_record: int) -> bytes:
+    size = chunk.uncompressed_size
+    if size > max_record:
+        raise _Damage(f"declares {size} bytes uncompressed (limit {max_record})")
+    if chunk.compression == "":
+        data = chunk.data
+    else:
+        decompress = _DECOMPRESS.get(chunk.compression)
+        if decompress is None:
+            raise _Damage(f"unsupported compression {chunk.compression!r}")
+        data = decompress(chunk.data, size)
+    if chunk.uncompressed_crc != 0:
+        crc = zlib.crc32(data)
+        if crc != chunk.uncompressed_crc:
+            raise _Damage(f"CRC {crc:#010x} instead of {chunk.uncompressed_crc:#010x}")
+    return data
+
+
+_MESSAGE_HEAD = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
+_RECORD_HEAD = struct.Struct("<BQ")
+
+
+def _breakup(data: bytes) -> list[McapRecord]:
+    """The schema, channel and message records of a chunk's data, each within its length."""
+    out: list[McapRecord] = []
+    end = len(data)
+    pos = 0
+    head = _RECORD_HEAD.size
+    while pos < end:
+        if end - pos < head:
+            raise _Damage(f"a record header is cut at chunk byte {pos}")
+        opcode, length = _RECORD_HEAD.unpack_from(data, pos)
+        start = pos + head
+        stop = start + length
+        if stop > end:
+            raise _Damage(f"{_name(opcode)} record at chunk byte {pos} claims {length} bytes, {end - start} remain")
+        if opcode == Opcode.MESSAGE:
+            if length < _MESSAGE_HEAD.size:
+                raise _Damage(f"MESSAGE record at chunk byte {pos} is {length} bytes long")
+            channel_id, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
+            out.append(Message(channel_id, log_time, data[start + _MESSAGE_HEAD.size : stop], publish_time, sequence))
+        elif opcode == Opcode.CHANNEL:
+            out.append(Channel.read(_Body(data[start:stop])))
+        elif opcode == Opcode.SCHEMA:
+            out.append(Schema.read(_Body(data[start:stop])))
+        pos = stop
+    return out
+
+
+def _chunk_records(chunk: Chunk, report: ReadReport, max_record: int) -> list[McapRecord]:
+    try:
+        recs = _breakup(_chunk_data(chunk, max_record))
     except Exception as exc:  # CRC, decompression, a broken record inside: skip the chunk
-        report.bad_chunks += 1
-        if len(report.bad_chunk_errors) < 10:
-            report.bad_chunk_errors.append(f"{type(exc).__name__}: {exc}")
+        _bad_chunk(report, exc)
         return []
     report.chunks += 1
     return recs
 
 
-def iter_records(stream: IO[bytes], report: ReadReport) -> Iterator[McapRecord]:
-    """Every record of the file in file order, chunks opened; never raises on content.
+def _bad_chunk(report: ReadReport, exc: Exception) -> None:
+    report.bad_chunks += 1
+    if len(report.bad_chunk_errors) < _KEEP_ERRORS:
+        why = str(exc) if isinstance(exc, _Damage) else f"{type(exc).__name__}: {exc}"
+        report.bad_chunk_errors.append(why)
+
+
+# -- records of the file ----------------------------------------------------------------
+#: opcode -> parser of the record's bytes. The records read front to back need: the
+#: indexes and statistics of the summary are skipped unparsed (`recover` rebuilds them).
+_PARSE: dict[int, Callable[[bytes], McapRecord]] = {
+    Opcode.HEADER: lambda b: Header.read(_Body(b)),
+    Opcode.FOOTER: lambda b: Footer.read(_Body(b)),
+    Opcode.SCHEMA: lambda b: Schema.read(_Body(b)),
+    Opcode.CHANNEL: lambda b: Channel.read(_Body(b)),
+    Opcode.MESSAGE: lambda b: Message.read(_Body(b), len(b)),
+    Opcode.CHUNK: lambda b: Chunk.read(_Body(b)),
+    Opcode.ATTACHMENT: lambda b: Attachment.read(_Body(b)),
+    Opcode.METADATA: lambda b: Metadata.read(_Body(b)),
+    Opcode.DATA_END: lambda b: DataEnd.read(_Body(b)),
+}
+
+
+def iter_records(stream: IO[bytes], report: ReadReport, *, max_record: int | None = None) -> Iterator[McapRecord]:
+    """Every content record of the file in file order, chunks opened; never raises on content.
 
     `report` is filled in as the file is read and is complete once the iterator is
-    exhausted. Raises `McapError` only when the file is not MCAP at all (bad magic).
+    exhausted. Raises `McapError` only when the file is not MCAP at all (bad magic), and
+    its subclass `NoRecords` when it holds the magic but not one complete record.
+    OSError from the stream is passed on. No record longer than `max_record` (default
+    `MAX_RECORD`) is read, and no chunk decompressed to more.
     """
-    reader = StreamReader(stream, emit_chunks=True, record_size_limit=1 << 30)
-    records = reader.records
-    first = True
+    if max_record is None:
+        max_record = MAX_RECORD
+    magic = _read(stream, len(MAGIC))
+    if magic != MAGIC:
+        if magic and MAGIC.startswith(magic):
+            raise McapError("not an MCAP file (too short)")
+        raise McapError("not a valid MCAP file (it does not begin with the MCAP magic)")
+    header, pos = _first_record(stream, max_record)
+    yield header
+    head_size = _RECORD_HEAD.size
     while True:
-        try:
-            rec = next(records)
-        except StopIteration:
-            return
-        except _TRUNCATION:
-            if first:
-                raise McapError("not an MCAP file (too short)") from None
+        head = _read(stream, head_size)
+        if len(head) < head_size:
             report.truncated = True
             return
-        except McapError as exc:
-            if first:
-                raise
-            report.error = f"{type(exc).__name__}: {exc}"
+        opcode, length = _RECORD_HEAD.unpack(head)
+        if length > max_record:
+            report.error = f"damaged: {_name(opcode)} record at byte {pos} claims {length} bytes (limit {max_record})"
             return
-        first = False
+        body = _read(stream, length)
+        if len(body) < length:
+            report.truncated = True
+            return
+        at = pos
+        pos += head_size + length
+        parse = _PARSE.get(opcode)
+        if parse is None:  # indexes, statistics, records of a later MCAP version
+            continue
+        try:
+            rec = parse(body)
+        except Exception as exc:  # its fields do not fit its bytes
+            if opcode == Opcode.CHUNK:
+                _bad_chunk(report, _Damage(f"CHUNK record at byte {at}: {_why(exc)}"))
+            else:
+                report.bad_records += 1
+                if len(report.bad_record_errors) < _KEEP_ERRORS:
+                    report.bad_record_errors.append(f"{_name(opcode)} record at byte {at}: {_why(exc)}")
+            continue
         if isinstance(rec, Chunk):
-            for r in _chunk_records(rec, report):
+            for r in _chunk_records(rec, report, max_record):
                 if isinstance(r, Message):
                     report.messages += 1
                 yield r
@@ -98,15 +334,55 @@ def iter_records(stream: IO[bytes], report: ReadReport) -> Iterator[McapRecord]:
             report.finished = True
             report.summary = rec.summary_start != 0
         yield rec
+        if isinstance(rec, Footer):
+            tail = _read(stream, len(MAGIC))
+            if len(tail) < len(MAGIC):
+                report.truncated = True
+            elif tail != MAGIC:
+                report.error = f"damaged: the footer at byte {at} is not followed by the MCAP magic"
+            return
+
+
+def _first_record(stream: IO[bytes], max_record: int) -> tuple[Header, int]:
+    """The header every MCAP file begins with, and the offset after it; `NoRecords`
+    when the file holds only the magic, ends inside its first record, or does not begin
+    with a header at all (so that it is refused as an empty file is)."""
+    at = len(MAGIC)
+    head = _read(stream, _RECORD_HEAD.size)
+    if not head:
+        raise NoRecords("no records: the file holds only the MCAP magic")
+    if len(head) < _RECORD_HEAD.size:
+        raise NoRecords("no records: the file ends inside its first record")
+    opcode, length = _RECORD_HEAD.unpack(head)
+    if opcode != Opcode.HEADER:
+        raise NoRecords(f"no records: the first record is {_name(opcode)}, not the MCAP header")
+    if length > max_record:
+        raise NoRecords(f"no records: damaged: the header claims {length} bytes (limit {max_record})")
+    body = _read(stream, length)
+    if len(body) < length:
+        raise NoRecords("no records: the file ends inside its first record")
+    try:
+        header = Header.read(_Body(body))
+    except Exception as exc:  # its fields do not fit its bytes
+        raise NoRecords(f"no records: damaged: the header at byte {at}: {_why(exc)}") from None
+    return header, at + _RECORD_HEAD.size + length
+
+
+def _why(exc: BaseException) -> str:
+    if isinstance(exc, _Damage):
+        return str(exc)
+    if isinstance(exc, (EndOfFile, struct.error)):
+        return "its fields run past its length"
+    return f"{type(exc).__name__}: {exc}"
 
 
 def iter_messages(
-    stream: IO[bytes], report: ReadReport
+    stream: IO[bytes], report: ReadReport, *, max_record: int | None = None
 ) -> Iterator[tuple[Channel, Schema | None, Message]]:
     """Messages with their channel and schema, in file order (publish order)."""
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
-    for rec in iter_records(stream, report):
+    for rec in iter_records(stream, report, max_record=max_record):
         if isinstance(rec, Message):
             ch = channels.get(rec.channel_id)
             if ch is None:
