@@ -9,7 +9,7 @@ from typing import BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
-from .fastmessages import FastMessages
+from .fastmessages import FastMessages, PackedChunkIndexes
 from .schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
 
 __all__ = ["McapFile", "COMPRESSION"]
@@ -53,6 +53,7 @@ class McapFile:
         self._metadata = metadata
         #: Bytes of the header and metadata: a file no longer than this holds no data.
         self.header_size = 0
+        PackedChunkIndexes.attach(self._writer)  # 200 bytes per chunk held, not 1.4 KB
         fast = FastMessages.attach(self._writer)
         #: add_message(channel_id, log_ns, data, pub_ns): the fast path when it applies.
         self.add_message = fast.add if fast is not None else self._writer.add_message

@@ -26,12 +26,14 @@ data stays, for `edged recover`). Retries after a failed attempt back off, from
 alone is checked every `retry_seconds` (it creates nothing).
 
 Memory stays flat however long the recording: the `mcap` Writer keeps one chunk index
-entry per chunk in memory until the file is finished, so a file is finished and the
-next one begun when it reaches `max_chunks` chunks (`rotations.index`). In directory
-mode that is one more rotated file; with an exact `path` (`edged replay --record
-OUT.mcap`) the first file keeps the exact name and the next ones are numbered beside
-it: `OUT.mcap`, `OUT.001.mcap`, `OUT.002.mcap`, ... (at the reference load, one file
-per about two hours of data).
+entry per chunk in memory until the file is finished (packed to about 200 bytes by
+`fastmessages.PackedChunkIndexes`, 1.4 KB as the library's objects), so a file is
+finished and the next one begun when it reaches `max_chunks` chunks (`MAX_CHUNKS`;
+counted `rotations.index`). In directory mode that is one more rotated file; with an
+exact `path` (`edged replay --record OUT.mcap`) the first file keeps the exact name and
+the next ones are numbered beside it: `OUT.mcap`, `OUT.001.mcap`, `OUT.002.mcap`, ...
+(at the reference load, one file per about three hours of data). An exact recording
+that stopped on an error is not resumed, in the file or a numbered one.
 """
 
 from __future__ import annotations
@@ -70,8 +72,10 @@ MAX_T = (2**64 - 1) / 1e9
 RETRY_MAX_SECONDS = 300.0
 #: Room a new file needs beyond one chunk (header, metadata, indexes, summary).
 FILE_HEADROOM = 256 * 1024
-#: Chunks per file before the next file (bounds the Writer's in-memory chunk index).
-MAX_CHUNKS = 20_000
+#: Chunks per file before the next file: bounds the Writer's in-memory chunk index
+#: (about 200 bytes a chunk, packed: 8 MB; at the reference load about 3.4 chunks per
+#: second of data, so a file holds about three hours).
+MAX_CHUNKS = 40_000
 
 
 def _default_opener(path: Path, mode: str) -> BinaryIO:

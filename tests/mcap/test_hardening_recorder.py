@@ -325,3 +325,71 @@ def test_backoff_stays_at_its_cap_through_weeks_of_failures(make_rig, tmp_path):
     assert 1100 < len(disk.opened) <= 1201
     assert _mcaps(tmp_path / "rec") == []
     rig.close()
+
+
+def _writer_bytes(packed: bool, messages: list[tuple[int, int, bytes]], flush_every: int, sink: Any = None) -> bytes:
+    from mcap.writer import CompressionType, Writer
+
+    from edged_mcap.fastmessages import FastMessages, PackedChunkIndexes
+
+    out = sink if sink is not None else io.BytesIO()
+    w = Writer(out, chunk_size=1024, compression=CompressionType.ZSTD)
+    w.start(profile="", library="test")
+    if packed:
+        assert PackedChunkIndexes.attach(w), "the mcap Writer's chunk index list changed: update edged_mcap.fastmessages"
+    sid = w.register_schema("s", "jsonschema", b"{}")
+    channels = [w.register_channel(f"/c{i}", "json", sid) for i in range(14)]
+    fm = FastMessages.attach(w)
+    assert fm is not None
+    for i, (ch, log, data) in enumerate(messages):
+        fm.add(channels[ch], log, data, log)
+        if (i + 1) % flush_every == 0:
+            w.flush()
+    w.finish()
+    return out.getvalue() if sink is None else b""
+
+
+def test_packed_chunk_indexes_give_the_same_file_byte_for_byte():
+    import random
+
+    rnd = random.Random(3)
+    t0 = 1_732_350_000_000_000_000
+    messages = [(rnd.randrange(14), t0 + i * 1_000_000, rnd.randbytes(rnd.randrange(1, 200))) for i in range(5000)]
+    packed = _writer_bytes(True, messages, flush_every=333)
+    assert packed == _writer_bytes(False, messages, flush_every=333)
+    summary = make_reader(io.BytesIO(packed)).get_summary()
+    assert len(summary.chunk_indexes) > 100
+    assert sum(1 for _ in make_reader(io.BytesIO(packed)).iter_messages()) == 5000
+
+
+def test_a_chunk_held_in_memory_costs_a_few_hundred_bytes_not_1_4_kb(tmp_path):
+    import tracemalloc
+
+    from mcap.writer import CompressionType, Writer
+
+    from edged_mcap.fastmessages import FastMessages, PackedChunkIndexes
+
+    def per_chunk(packed: bool) -> float:
+        with open(tmp_path / f"{packed}.mcap", "wb") as sink:
+            w = Writer(sink, chunk_size=1024, compression=CompressionType.NONE)
+            w.start()
+            if packed:
+                PackedChunkIndexes.attach(w)
+            sid = w.register_schema("s", "jsonschema", b"{}")
+            channels = [w.register_channel(f"/c{i}", "json", sid) for i in range(14)]
+            fm = FastMessages.attach(w)
+            assert fm is not None
+            tracemalloc.start()
+            try:
+                base = tracemalloc.get_traced_memory()[0]
+                for i in range(2000 * 17):
+                    fm.add(channels[i % 14], i, b"x" * 60, i)
+                grown = tracemalloc.get_traced_memory()[0] - base
+            finally:
+                tracemalloc.stop()
+            n = len(getattr(w, "_Writer__chunk_indices"))
+            w.finish()
+        return grown / n
+
+    assert per_chunk(False) > 1000  # the library's ChunkIndex objects
+    assert per_chunk(True) < 300
