@@ -57,7 +57,15 @@ _KEEP_ERRORS = 10
 
 
 class NoRecords(McapError):
-    """A file that starts with the MCAP magic but holds not one readable record."""
+    """A file that starts with the MCAP magic but holds not one readable record.
+
+    `reason` completes "the file ...", e.g. "holds only the MCAP magic", so that a
+    caller can name the file: f"no records: {path} {exc.reason}".
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"no records: the file {reason}")
+        self.reason = reason
 
 
 @dataclass
@@ -350,21 +358,21 @@ def _first_record(stream: IO[bytes], max_record: int) -> tuple[Header, int]:
     at = len(MAGIC)
     head = _read(stream, _RECORD_HEAD.size)
     if not head:
-        raise NoRecords("no records: the file holds only the MCAP magic")
+        raise NoRecords("holds only the MCAP magic")
     if len(head) < _RECORD_HEAD.size:
-        raise NoRecords("no records: the file ends inside its first record")
+        raise NoRecords("ends inside its first record")
     opcode, length = _RECORD_HEAD.unpack(head)
     if opcode != Opcode.HEADER:
-        raise NoRecords(f"no records: the first record is {_name(opcode)}, not the MCAP header")
+        raise NoRecords(f"begins with a {_name(opcode)} record, not the MCAP header")
     if length > max_record:
-        raise NoRecords(f"no records: damaged: the header claims {length} bytes (limit {max_record})")
+        raise NoRecords(f"is damaged: its header claims {length} bytes (limit {max_record})")
     body = _read(stream, length)
     if len(body) < length:
-        raise NoRecords("no records: the file ends inside its first record")
+        raise NoRecords("ends inside its first record")
     try:
         header = Header.read(_Body(body))
     except Exception as exc:  # its fields do not fit its bytes
-        raise NoRecords(f"no records: damaged: the header at byte {at}: {_why(exc)}") from None
+        raise NoRecords(f"is damaged: its header at byte {at}: {_why(exc)}") from None
     return header, at + _RECORD_HEAD.size + length
 
 

@@ -312,13 +312,14 @@ def test_what_each_command_reads_stays_small_on_a_lying_length(good, fn, tmp_pat
 
 # -- item 2: the magic and nothing else --------------------------------------------------
 def test_a_file_with_only_the_magic_is_refused_like_an_empty_one():
-    with pytest.raises(NoRecords, match="no records: the file holds only the MCAP magic"):
+    with pytest.raises(NoRecords, match="no records: the file holds only the MCAP magic") as e:
         list(iter_records(io.BytesIO(MAGIC), ReadReport()))
+    assert e.value.reason == "holds only the MCAP magic"  # for "no records: <file> holds only ..."
     with pytest.raises(NoRecords, match="ends inside its first record"):
         list(iter_records(io.BytesIO(MAGIC + b"\x01\x05\x00"), ReadReport()))
-    with pytest.raises(NoRecords, match="not the MCAP header"):  # a chunk first: no header at all
+    with pytest.raises(NoRecords, match="begins with a CHUNK record, not the MCAP header"):  # no header at all
         list(iter_records(io.BytesIO(MAGIC + bytes([_CHUNK]) + struct.pack("<Q", 0) + MAGIC), ReadReport()))
-    with pytest.raises(NoRecords, match="damaged: the header claims"):
+    with pytest.raises(NoRecords, match="is damaged: its header claims"):
         list(iter_records(io.BytesIO(MAGIC + bytes([_HEADER]) + struct.pack("<Q", 1 << 63)), ReadReport()))
     # NoRecords is an McapError: every command that refuses a non-MCAP file refuses these.
     assert issubclass(NoRecords, McapError)
