@@ -14,7 +14,13 @@ field claims; the record's own fields are parsed from those bytes only, never fr
 the file; a chunk is decompressed only when its declared uncompressed size is within
 `max_record`, and never into more than it declared. A length that cannot be true
 stops the reading there (`ReadReport.error`, "damaged: ..."): what came before it
-has been read.
+has been read. A length beyond the end of the file cannot be told from a write cut
+short: it ends the file as truncation.
+
+A file that has the MCAP magic but no header after it (only the magic, a header cut
+short, another record first) raises `NoRecords`: it is refused as an empty file is.
+Index and statistics records are skipped unparsed: reading front to back does not
+need them, and `edged recover` writes new ones.
 """
 
 from __future__ import annotations
