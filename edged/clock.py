@@ -11,6 +11,8 @@ from __future__ import annotations
 import time
 from typing import Callable, Protocol
 
+_INF = float("inf")
+
 
 class Clock(Protocol):
     def now(self) -> float:
@@ -46,13 +48,15 @@ class ReplayClock:
 
     Never goes backwards: a record older than the clock leaves it where it is, so that
     rates computed from it stay sane across the small reorderings real logs contain.
+    Never goes to a time that is not finite either (NaN and +inf leave it where it is):
+    the readers reject implausible times (edged.timecheck), this is the last guard.
     """
 
     def __init__(self, start: float = 0.0) -> None:
         self._t = start
 
     def advance_to(self, t: float) -> None:
-        if t > self._t:
+        if self._t < t < _INF:  # NaN fails both comparisons
             self._t = t
 
     def now(self) -> float:

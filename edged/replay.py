@@ -7,6 +7,19 @@ decoder of its protocol and source, made once and kept for the whole replay so t
 state (fast-packet reassembly, the date of an NMEA log) carries across files.
 Time is the data's: the replay clock follows the records. `speed` 0 runs as fast as
 possible; N > 0 paces the records at N times real time.
+
+Times that cannot be true are rejected by the readers (`rejected.bad_time`, window of
+edged.timecheck, whose `TimeLimits` the replayer hands each reader in its options as
+`time_limits`); the driver itself refuses any record whose time is not finite, is
+negative or lies after the limits' `latest` (the one-day rule is the readers': it is
+per log, and the files of one replay may be days apart), counting it in the health of
+its source, so that no reader's mistake can move the clock there.
+
+Pacing never waits long: when the next record is due more than `max_wait` seconds of
+wall time ahead (default MAX_WAIT = 10 s: a gap of 1000 s in the log at `--speed 100`,
+of 10 s at `--speed 1`), the gap is skipped with one warning and pacing resumes from
+that record, so that a log with an hour's pause (or a stray late time) does not make
+the replay sit idle.
 """
 
 from __future__ import annotations
@@ -18,7 +31,7 @@ import io
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, Iterator
+from typing import Any, Awaitable, BinaryIO, Callable, Iterator
 
 from .clock import ReplayClock
 from .health import ComponentHealth
@@ -26,12 +39,15 @@ from .plugin import Decoder, ReplayOptions
 from .records import HealthRecord, RawRecord
 from .registry import Registry
 from .runtime import Runtime
+from .timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits
 
 log = logging.getLogger("edged.replay")
 
 HEAD_BYTES = 4096
 #: Records between two looks at the outputs' queues and the progress bar.
 BATCH = 512
+#: Longest wall-time wait of the pacing (`speed` > 0); a longer gap is skipped.
+MAX_WAIT = 10.0
 
 
 class UnknownFormat(ValueError):
@@ -103,6 +119,10 @@ class ReplayStats:
     t_first: float | None = None
     t_last: float | None = None
     undecodable: dict[str, int] = field(default_factory=dict)
+    #: records the driver refused for their time (the readers count theirs themselves)
+    bad_time: int = 0
+    #: gaps the pacing skipped instead of waiting (longer than `max_wait` at the speed)
+    gaps_skipped: int = 0
 
 
 class Replayer:
@@ -116,6 +136,9 @@ class Replayer:
         speed: float = 0.0,
         date: str | None = None,
         progress: Callable[[int, int], None] | None = None,
+        time_limits: TimeLimits = DEFAULT_LIMITS,
+        max_wait: float = MAX_WAIT,
+        sleep: Callable[[float], Awaitable[Any]] = asyncio.sleep,
     ) -> None:
         if not isinstance(runtime.clock, ReplayClock):
             raise TypeError("replay needs a ReplayClock")
@@ -125,6 +148,9 @@ class Replayer:
         self.speed = speed
         self.date = date
         self.progress = progress
+        self.time_limits = time_limits
+        self.max_wait = max_wait
+        self._sleep = sleep
         self.stats = ReplayStats()
         self._decoders: dict[tuple[str, str], Decoder | None] = {}
         #: protocol -> input class whose decoder reads it: first the inputs that read
@@ -150,6 +176,8 @@ class Replayer:
         self.total_bytes += path.stat().st_size
         health = self._health(source, name)
         opts = ReplayOptions(date=self.date, config=in_cfg, path=path)
+        # Read with edged.timecheck.limits_of(options) (not a field of ReplayOptions yet).
+        setattr(opts, "time_limits", self.time_limits)
         return cls.open_replay(io.BufferedReader(f, 1 << 16), source, health, opts)
 
     def _decoder(self, protocol: str, source: str) -> Decoder | None:
@@ -191,19 +219,34 @@ class Replayer:
         next_flush = wall0 + interval
         t0: float | None = None
         n = 0
+        top = self.time_limits.latest
+        speed = self.speed
+        max_wait = self.max_wait
+        sleep = self._sleep
         quiet_gc = _QuietGC()
         try:
             for raw in merged:
                 t = raw.t
+                if not 0.0 <= t <= top:  # NaN fails, ±inf fails
+                    self._refuse(raw)
+                    continue
                 if t0 is None:
                     t0 = t
                     stats.t_first = t
                     next_tick = t + interval
                 clock.advance_to(t)
-                if self.speed > 0:
-                    delay = wall0 + (t - t0) / self.speed - loop.time()
-                    if delay > 0:
-                        await asyncio.sleep(delay)
+                if speed > 0:
+                    delay = wall0 + (t - t0) / speed - loop.time()
+                    if delay > max_wait:
+                        stats.gaps_skipped += 1
+                        log.warning(
+                            "replay: %.1f s without data before %s at t=%.3f "
+                            "(%.1f s of wall time at --speed %g): skipped, not waited for",
+                            delay * speed, raw.source, t, delay, speed,
+                        )
+                        wall0 -= delay  # this record is due now; pacing goes on from it
+                    elif delay > 0:
+                        await sleep(delay)
                 publish(raw)
                 dec = self._decoder(raw.protocol, raw.source)
                 if dec is None:
@@ -235,6 +278,13 @@ class Replayer:
             for s in self._streams:
                 s.close()
         return stats
+
+    def _refuse(self, raw: RawRecord) -> None:
+        """A record whose time no reader should have let through: counted, logged."""
+        self.stats.bad_time += 1
+        h = self._health(raw.source, raw.protocol)
+        h.count("rejected." + BAD_TIME)
+        h.error(f"record at time {raw.t!r} refused: not a plausible time")
 
     async def _yield(self, final: bool = False) -> None:
         """Let the workers and outputs work; wait while their queues are more than
