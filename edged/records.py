@@ -25,6 +25,7 @@ __all__ = [
     "validate_measurement",
     "measurement_to_json",
     "TWO_PI",
+    "ANGLE_MAX",
     "wrap_angle",
 ]
 
@@ -32,12 +33,18 @@ TWO_PI = 2.0 * math.pi
 
 
 def wrap_angle(a: float) -> float:
-    """Map an angle onto [0, 2π), the convention of every angle in a measurement."""
+    """Map an angle onto [0, 2π), the convention of every angle in a measurement.
+
+    For sums of angles that are each in range (a magnetic heading plus a variation);
+    it is not a way to accept a reading that is out of range, which callers reject
+    before. −0.0 (and a negative hair that rounds to 2π) comes out as 0.0.
+    """
     a = math.fmod(a, TWO_PI)
     if a < 0.0:
         a += TWO_PI
-    # fmod of a value a hair below 2π plus 2π may round to 2π itself.
-    return 0.0 if a >= TWO_PI else a
+    # fmod of a value a hair below 2π plus 2π may round to 2π itself; `a == 0.0` is
+    # also true of −0.0, which must never be emitted.
+    return 0.0 if a >= TWO_PI or a == 0.0 else a
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,7 +78,10 @@ def _k(name: str, doc: str, *fields: Field) -> KindSpec:
     return KindSpec(name, fields, doc)
 
 
-_ANGLE_BOUND = dict(lo=0.0, hi=TWO_PI)
+#: Angles lie in [0, 2π): the upper bound is the largest float below 2π, so that the
+#: inclusive comparison of validate_measurement excludes 2π itself.
+ANGLE_MAX = math.nextafter(TWO_PI, 0.0)
+_ANGLE_BOUND = dict(lo=0.0, hi=ANGLE_MAX)
 
 #: Every measurement kind, DESIGN §2. SI units: m, m/s, m/s², rad, rad/s.
 KINDS: dict[str, KindSpec] = {
@@ -82,9 +92,9 @@ KINDS: dict[str, KindSpec] = {
             "Geodetic position (WGS-84).",
             Field("lat", "deg", lo=-90.0, hi=90.0),
             Field("lon", "deg", lo=-180.0, hi=180.0),
-            Field("fix_quality", "1", required=False, lo=0),
+            Field("fix_quality", "1", required=False, lo=0, hi=8),  # GGA: 0-8 defined
             Field("hdop", "1", required=False, lo=0.0),
-            Field("sats", "1", required=False, lo=0),
+            Field("sats", "1", required=False, lo=0, hi=255),
         ),
         _k(
             "velocity_ground",
@@ -129,7 +139,7 @@ KINDS: dict[str, KindSpec] = {
             "depth",
             "Depth below transducer; offset + transducer to waterline, − to keel.",
             Field("depth", "m", lo=0.0, hi=12000.0),
-            Field("offset", "m", required=False),
+            Field("offset", "m", required=False, lo=-100.0, hi=100.0),
         ),
         _k(
             "draft",

@@ -8,6 +8,8 @@ Counters (in the health it was made with):
 - `sentences.<TYPE>`: sentences of a type it decodes (TYPE without talker: GGA, HDT…);
 - `invalid.<TYPE>`: of those, ones that gave no measurement because the sentence said
   its data is invalid, a needed field was empty, or a value was impossible;
+- `invalid.RMC.variation`: RMCs whose magnetic variation was malformed or outside
+  ±180° (the fix is kept; the variation in use stays the last good or configured one);
 - `measurements.<kind>`: measurements emitted;
 - `unknown.<TYPE>`: sentences of other types (kept raw only); at most MAX_UNKNOWN_KEYS
   distinct types are named, the rest count as `unknown.other`;
@@ -107,7 +109,10 @@ class Nmea0183Decoder:
             self._invalid(entry, exc if isinstance(exc, Invalid) else "empty or malformed field")
             return []
         if variation is not None:
-            self._env.variation = variation  # RMC's variation outranks the configured one
+            if -180.0 <= variation <= 180.0:  # false for NaN too
+                self._env.variation = variation  # RMC's variation outranks the configured one
+            else:
+                self._bad_variation(entry, variation)
         t = raw.t
         t_src = None if tod is None else nearest_time(t, tod)
         result: list[Measurement] = []
@@ -121,6 +126,18 @@ class Nmea0183Decoder:
             counters[key] = counters.get(key, 0) + 1
             result.append(Measurement(kind, self.source, t, values, t_src))
         return result
+
+    def _bad_variation(self, entry: _Type, variation: float) -> None:
+        """A variation that cannot be true is rejected by itself: the sentence's fix is
+        kept, and so is the variation later magnetic sentences use (the last good one,
+        else the configured one)."""
+        key = entry.invalid + ".variation"
+        self._health.count(key)
+        # One message whatever the value: logged once, not once per sentence.
+        self._reporter.report(
+            f"{key}: magnetic variation malformed or outside ±180° rejected; "
+            "the last good (or configured) variation stays in use"
+        )
 
     def _invalid(self, entry: _Type, why: object) -> None:
         self._health.count(entry.invalid)

@@ -5,16 +5,24 @@ from pynmea2's definitions, see `sentences.field_index`) and the decoder's read-
 environment, and returns `Out`. A sentence that says its data is not valid (status
 `V`, GGA quality 0, FAA mode `N`) or lacks a field its measurement needs raises
 `Invalid`; an empty or malformed number raises ValueError, which the decoder treats
-the same way. Handlers do not validate ranges: the decoder runs
-`edged.records.validate_measurement` on everything they return.
+the same way.
+
+Numbers are read strictly (`num`, `count`): NMEA 0183 writes plain decimals, so the
+underscores, blanks, exponents, `nan` and `inf` that Python's float() and int() accept
+are malformed here. Angles in degrees are checked against the range the standard gives
+their field (`angle_deg`, `signed_deg`) and raise `OutOfRange` beyond it, never wrapped:
+a heading of 1e308 or −90 is not a heading. Only a sum of in-range angles (magnetic
+heading + variation) is wrapped. The other ranges are the measurement kinds' bounds:
+the decoder runs `edged.records.validate_measurement` on everything handlers return.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from typing import Any, Callable
 
-from edged.records import wrap_angle
+from edged.records import TWO_PI, wrap_angle
 
 from .sentences import field_index
 from .timeofday import parse_tod
@@ -29,6 +37,10 @@ DEG_PER_MIN = DEG / 60.0  # rad/s
 
 class Invalid(Exception):
     """The sentence carries no valid data (its own status says so, or fields are empty)."""
+
+
+class OutOfRange(Invalid):
+    """A field holds a number its definition does not allow (a heading of 400°)."""
 
 
 class Env:
@@ -56,13 +68,54 @@ Handler = Callable[[list[str], Env], Out]
 
 # ---- field helpers -----------------------------------------------------------------
 
+#: An NMEA 0183 decimal: optional sign, digits with an optional fraction (`.5`, `5.`
+#: included). ASCII digits only: no blanks, underscores, exponents, nan or inf.
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)\Z").match
+_DIGITS = re.compile(r"[0-9]+\Z").match
+
+
+def num(s: str) -> float:
+    """A numeric field, strictly; ValueError when empty or malformed."""
+    if _DECIMAL(s) is None:
+        raise ValueError(f"not an NMEA number: {s!r}")
+    return float(s)
+
+
+def count(s: str) -> int:
+    """An unsigned integer field (fix quality, satellites), strictly."""
+    if _DIGITS(s) is None:
+        raise ValueError(f"not an NMEA integer: {s!r}")
+    return int(s)
+
+
 def _opt(s: str) -> float | None:
-    return float(s) if s else None
+    return num(s) if s else None
+
+
+def direction_deg(s: str, what: str) -> float:
+    """A direction field in degrees, checked to lie in [0, 360]; −0 comes back as 0."""
+    v = num(s)
+    if not 0.0 <= v <= 360.0:
+        raise OutOfRange(f"{what} outside [0, 360]")  # no value: logged once per kind
+    return v + 0.0  # + 0.0: −0.0 becomes 0.0
+
+
+def angle_deg(s: str, what: str) -> float:
+    """A direction in degrees, [0, 360] (360 is north, as 0) -> radians in [0, 2π)."""
+    r = direction_deg(s, what) * DEG
+    return r if r < TWO_PI else 0.0  # 360, or a hair below that rounds to 2π
+
+
+def signed_deg(v: float, what: str) -> float:
+    """A signed angle in degrees (variation, deviation) checked to lie in [−180, 180]."""
+    if not -180.0 <= v <= 180.0:
+        raise OutOfRange(f"{what} outside [-180, 180]")
+    return v
 
 
 def _lat(value: str, hemi: str) -> float:
     """`ddmm.mmmm` + N/S -> signed decimal degrees (empty -> Invalid)."""
-    v = float(value)  # empty: ValueError, which the decoder counts as invalid
+    v = num(value)  # empty: ValueError, which the decoder counts as invalid
     deg = v // 100.0
     minutes = v - deg * 100.0
     if minutes >= 60.0 or v < 0.0:
@@ -76,7 +129,7 @@ def _lat(value: str, hemi: str) -> float:
 
 def _lon(value: str, hemi: str) -> float:
     """`dddmm.mmmm` + E/W -> signed decimal degrees (empty -> Invalid)."""
-    v = float(value)
+    v = num(value)
     deg = v // 100.0
     minutes = v - deg * 100.0
     if minutes >= 60.0 or v < 0.0:
@@ -89,10 +142,14 @@ def _lon(value: str, hemi: str) -> float:
 
 
 def _signed(value: str, direction: str) -> float | None:
-    """A deviation/variation `x.x,E|W` in degrees, east positive; None when empty."""
+    """A deviation/variation `x.x,E|W` in degrees, east positive; None when empty.
+
+    Not range-checked here: RMC's variation is judged by the decoder on its own (a bad
+    one must not reject the fix), the others by `signed_deg`.
+    """
     if not value:
         return None
-    v = float(value)
+    v = num(value)
     if direction == "W":
         return -v
     if direction == "E":
@@ -106,7 +163,10 @@ def _faa_invalid(mode: str) -> bool:
 
 
 def _heading(magnetic_deg: float, variation: float | None) -> Items:
-    """A magnetic heading becomes true when a variation is known (DESIGN §2)."""
+    """A magnetic heading becomes true when a variation is known (DESIGN §2).
+
+    Both are in range (checked by the callers), so the sum is wrapped.
+    """
     if variation is None:
         return [("heading_magnetic", {"heading": wrap_angle(magnetic_deg * DEG)})]
     return [("heading", {"heading": wrap_angle((magnetic_deg + variation) * DEG)})]
@@ -119,17 +179,19 @@ _GGA = field_index("GGA", "timestamp", "lat", "lat_dir", "lon", "lon_dir", "gps_
 
 def gga(f: list[str], env: Env) -> Out:
     ts, la, lad, lo, lod, q, sats, hdop = _GGA
-    quality = int(f[q])
+    quality = count(f[q])
     if quality == 0:
         raise Invalid("fix quality 0")
+    if quality > 8:  # NMEA 0183 defines 0-8
+        raise OutOfRange("fix quality outside 0-8")
     h = f[hdop]
     n = f[sats]
     pos = {
         "lat": _lat(f[la], f[lad]),
         "lon": _lon(f[lo], f[lod]),
         "fix_quality": quality,
-        "hdop": float(h) if h else None,
-        "sats": int(n) if n else None,
+        "hdop": num(h) if h else None,
+        "sats": count(n) if n else None,
     }
     return [("position", pos)], parse_tod(f[ts]), None
 
@@ -149,7 +211,7 @@ def gns(f: list[str], env: Env) -> Out:
         "lon": _lon(f[lo], f[lod]),
         "fix_quality": max(qualities),
         "hdop": _opt(f[hdop]),
-        "sats": int(f[sats]) if f[sats] else None,
+        "sats": count(f[sats]) if f[sats] else None,
     }
     return [("position", pos)], parse_tod(f[ts]), None
 
@@ -165,12 +227,21 @@ def rmc(f: list[str], env: Env) -> Out:
     if f[st] != "A" or _faa_invalid(f[mode]):
         raise Invalid("status")
     items: Items = [("position", {"lat": _lat(f[la], f[lad]), "lon": _lon(f[lo], f[lod])})]
+    try:
+        variation = _signed(f[var], f[vard])
+    except (ValueError, Invalid):
+        # A malformed variation is not a reason to drop a valid fix: NaN hands it to
+        # the decoder, which rejects the variation alone and keeps the one it had.
+        variation = math.nan
     if f[sog]:
         course = f[cog]
-        items.append(
-            ("velocity_ground", {"sog": float(f[sog]) * KNOT, "cog": wrap_angle(float(course) * DEG) if course else None})
-        )
-    return items, parse_tod(f[ts]), _signed(f[var], f[vard])
+        try:
+            cog_rad = angle_deg(course, "course") if course else None
+        except OutOfRange:
+            # NaN: validation rejects (and counts) the velocity only; the fix stays.
+            cog_rad = math.nan
+        items.append(("velocity_ground", {"sog": num(f[sog]) * KNOT, "cog": cog_rad}))
+    return items, parse_tod(f[ts]), variation
 
 
 _GLL = field_index("GLL", "lat", "lat_dir", "lon", "lon_dir", "timestamp", "status", "faa_mode")
@@ -193,20 +264,20 @@ def vtg(f: list[str], env: Env) -> Out:
     if _faa_invalid(f[mode]):
         raise Invalid("mode N")
     if f[kts]:
-        sog = float(f[kts]) * KNOT
+        sog = num(f[kts]) * KNOT
     elif f[kmh]:
-        sog = float(f[kmh]) * KMH
+        sog = num(f[kmh]) * KMH
     else:
         raise Invalid("no speed")
     course = f[cog]
-    return [("velocity_ground", {"sog": sog, "cog": wrap_angle(float(course) * DEG) if course else None})], None, None
+    return [("velocity_ground", {"sog": sog, "cog": angle_deg(course, "course") if course else None})], None, None
 
 
 _HDT = field_index("HDT", "heading")
 
 
 def hdt(f: list[str], env: Env) -> Out:
-    return [("heading", {"heading": wrap_angle(float(f[_HDT[0]]) * DEG)})], None, None
+    return [("heading", {"heading": angle_deg(f[_HDT[0]], "heading")})], None, None
 
 
 _THS = field_index("THS", "heading", "mode")
@@ -217,7 +288,7 @@ def ths(f: list[str], env: Env) -> Out:
     h, mode = _THS
     if f[mode] not in _THS_VALID:
         raise Invalid("mode")  # V invalid, S simulator
-    return [("heading", {"heading": wrap_angle(float(f[h]) * DEG)})], None, None
+    return [("heading", {"heading": angle_deg(f[h], "heading")})], None, None
 
 
 _HDG = field_index("HDG", "heading", "deviation", "dev_dir", "variation", "var_dir")
@@ -225,8 +296,14 @@ _HDG = field_index("HDG", "heading", "deviation", "dev_dir", "variation", "var_d
 
 def hdg(f: list[str], env: Env) -> Out:
     h, dev, devd, var, vard = _HDG
-    magnetic = float(f[h]) + (_signed(f[dev], f[devd]) or 0.0)
+    sensor = direction_deg(f[h], "magnetic sensor heading")
+    deviation = _signed(f[dev], f[devd])
+    magnetic = sensor + (0.0 if deviation is None else signed_deg(deviation, "deviation"))
     own = _signed(f[var], f[vard])
+    if own is not None:
+        # A bad variation in this HDG rejects this HDG only (its heading needs it);
+        # the decoder's variation is not touched.
+        signed_deg(own, "variation")
     return _heading(magnetic, own if own is not None else env.variation), None, None
 
 
@@ -234,7 +311,7 @@ _HDM = field_index("HDM", "heading")
 
 
 def hdm(f: list[str], env: Env) -> Out:
-    return _heading(float(f[_HDM[0]]), env.variation), None, None
+    return _heading(direction_deg(f[_HDM[0]], "magnetic heading"), env.variation), None, None
 
 
 _ROT = field_index("ROT", "rate_of_turn", "status")
@@ -244,7 +321,7 @@ def rot(f: list[str], env: Env) -> Out:
     r, st = _ROT
     if f[st] != "A":
         raise Invalid("status")
-    return [("yaw_rate", {"r": float(f[r]) * DEG_PER_MIN})], None, None
+    return [("yaw_rate", {"r": num(f[r]) * DEG_PER_MIN})], None, None  # any sign
 
 
 _VBW = field_index(
@@ -261,17 +338,17 @@ def vbw(f: list[str], env: Env) -> Out:
     if not water_ok and not ground_ok:
         raise Invalid("status")
     if water_ok:
-        items.append(("water_speed", {"stw_long": float(f[wl]) * KNOT, "stw_trans": _knots(f[wt])}))
+        items.append(("water_speed", {"stw_long": num(f[wl]) * KNOT, "stw_trans": _knots(f[wt])}))
     if ground_ok and env.vbw_ground:
         # Ground speeds are along/across the hull: their direction needs the heading,
         # so only the speed is stated here.
-        sog = math.hypot(float(f[gl]), float(f[gt] or 0.0)) * KNOT
+        sog = math.hypot(num(f[gl]), num(f[gt]) if f[gt] else 0.0) * KNOT
         items.append(("velocity_ground", {"sog": sog, "cog": None}))
     return items, None, None
 
 
 def _knots(s: str) -> float | None:
-    return float(s) * KNOT if s else None
+    return num(s) * KNOT if s else None
 
 
 _VHW = field_index("VHW", "water_speed_knots", "water_speed_km")
@@ -280,9 +357,9 @@ _VHW = field_index("VHW", "water_speed_knots", "water_speed_km")
 def vhw(f: list[str], env: Env) -> Out:
     kts, kmh = _VHW
     if f[kts]:
-        stw = float(f[kts]) * KNOT
+        stw = num(f[kts]) * KNOT
     elif f[kmh]:
-        stw = float(f[kmh]) * KMH
+        stw = num(f[kmh]) * KMH
     else:
         raise Invalid("no speed")
     return [("water_speed", {"stw_long": stw, "stw_trans": None})], None, None
@@ -294,12 +371,12 @@ _VDR = field_index("VDR", "deg_t", "deg_m", "current")
 def vdr(f: list[str], env: Env) -> Out:
     true, mag, drift = _VDR
     if f[true]:
-        set_deg = float(f[true])
+        set_rad = angle_deg(f[true], "set")
     elif f[mag] and env.variation is not None:
-        set_deg = float(f[mag]) + env.variation
+        set_rad = wrap_angle((direction_deg(f[mag], "magnetic set") + env.variation) * DEG)
     else:
         raise Invalid("no set")
-    return [("current", {"set": wrap_angle(set_deg * DEG), "drift": float(f[drift]) * KNOT})], None, None
+    return [("current", {"set": set_rad, "drift": num(f[drift]) * KNOT})], None, None
 
 
 _DPT = field_index("DPT", "depth", "offset")
@@ -307,7 +384,7 @@ _DPT = field_index("DPT", "depth", "offset")
 
 def dpt(f: list[str], env: Env) -> Out:
     d, off = _DPT
-    return [("depth", {"depth": float(f[d]), "offset": _opt(f[off])})], None, None
+    return [("depth", {"depth": num(f[d]), "offset": _opt(f[off])})], None, None
 
 
 _DBT = field_index("DBT", "depth_feet", "depth_meters", "depth_fathoms")
@@ -316,11 +393,11 @@ _DBT = field_index("DBT", "depth_feet", "depth_meters", "depth_fathoms")
 def dbt(f: list[str], env: Env) -> Out:
     ft, m, fa = _DBT
     if f[m]:
-        depth = float(f[m])
+        depth = num(f[m])
     elif f[ft]:
-        depth = float(f[ft]) * FOOT
+        depth = num(f[ft]) * FOOT
     elif f[fa]:
-        depth = float(f[fa]) * FATHOM
+        depth = num(f[fa]) * FATHOM
     else:
         raise Invalid("no depth")
     return [("depth", {"depth": depth, "offset": None})], None, None
