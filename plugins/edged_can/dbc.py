@@ -87,6 +87,11 @@ class DbcDecoder:
     def knows(self, frame_id: int, ext: bool) -> bool:
         return (frame_id, ext) in self._frames
 
+    def is_fd(self, frame_id: int, ext: bool) -> bool:
+        """Whether the DBC defines this frame as a CAN FD one (up to 64 data bytes)."""
+        fr = self._frames.get((frame_id, ext))
+        return fr is not None and bool(fr.message.is_fd)
+
     def decode(self, raw: RawRecord, frame_id: int, ext: bool) -> list[Measurement]:
         fr = self._frames[(frame_id, ext)]
         try:

@@ -5,6 +5,11 @@ It needs nothing but the record (the identifier and the extended flag travel in
 decoded alike. Frames the DBC describes go to the DBC decoder (whatever their
 identifier length); other 29-bit frames are NMEA 2000; other 11-bit frames are counted
 as unknown and, like everything, were already recorded raw.
+
+Before any of that, the length: a classic CAN frame carries at most 8 data bytes and
+a CAN FD frame at most 64. A record is FD when its `meta` says so (`"fd": true`) or the
+DBC defines its frame as FD; anything else is classic, and NMEA 2000 always is. A frame
+longer than its kind allows is counted `rejected.bad_length` and not decoded.
 """
 
 from __future__ import annotations
@@ -18,6 +23,9 @@ from .config import CanConfig
 from .dbc import DbcDecoder
 from .emit import Emitter
 from .n2k import N2kDecoder
+
+CLASSIC_MAX = 8
+FD_MAX = 64
 
 
 class CanDecoder:
@@ -37,7 +45,19 @@ class CanDecoder:
             return []
         can_id, ext = ident
         count("frames")
-        if self._dbc.knows(can_id, ext):
+        is_dbc = self._dbc.knows(can_id, ext)
+        n = len(raw.data)
+        if n > CLASSIC_MAX:
+            # NMEA 2000 is classic CAN only; a DBC or unknown frame may be FD.
+            fd = not (ext and not is_dbc) and (_says_fd(raw.meta) or self._dbc.is_fd(can_id, ext))
+            if n > FD_MAX or not fd:
+                count("rejected.bad_length")
+                self._health.error(
+                    f"{raw.source}: frame 0x{can_id:x} with {n} data bytes "
+                    f"(classic CAN and NMEA 2000 carry at most {CLASSIC_MAX}, CAN FD {FD_MAX})"
+                )
+                return []
+        if is_dbc:
             count("frames.dbc")
             return self._dbc.decode(raw, can_id, ext)
         if ext:
@@ -45,6 +65,12 @@ class CanDecoder:
             return self._n2k.decode(raw, can_id)
         count(f"unknown_id.0x{can_id:03x}")
         return []
+
+
+def _says_fd(meta: Any) -> bool:
+    """Whether a record's meta marks it as a CAN FD frame (`"fd": true`)."""
+    get = getattr(meta, "get", None)
+    return get is not None and get("fd") is True
 
 
 def _identifier(meta: Any) -> tuple[int, bool] | None:

@@ -5,6 +5,12 @@ Field layouts come from canboat through `n2k_codec`; what each PGN means for edg
 PGN in a table. State that spans messages — fast-packets in flight, the magnetic
 variation last heard, which device holds which address — lives in this object, which
 the runtime keeps per bus, so it also spans the files of one replay.
+
+Values are taken as canboat decodes them and never wrapped into range: a heading or
+COG must lie in [0, 2π) (canboat's 16-bit angles reach 6.5535 rad, and 0xFFFC, just
+below its "unavailable"/"error" markers, decodes as 6.5532), a variation or deviation
+in [−π, π]; anything else is not a value and is counted `rejected.invalid_value`.
+Only sums of in-range angles (magnetic heading + variation) are wrapped.
 """
 
 from __future__ import annotations
@@ -13,7 +19,7 @@ import math
 from typing import Any, Callable
 
 from edged.health import ComponentHealth
-from edged.records import Measurement, RawRecord, wrap_angle
+from edged.records import TWO_PI, Measurement, RawRecord, wrap_angle
 
 from . import n2k_codec
 from .config import CanConfig
@@ -24,6 +30,9 @@ from .sources import N2kSources
 # canboat lookup codes used below.
 _REF_TRUE, _REF_MAGNETIC = 0, 1  # DIRECTION_REFERENCE
 _GNSS_NO_FIX, _GNSS_ERROR = 0, 14  # GNS_METHOD; 1..8 match NMEA 0183 GGA fix quality
+_GNSS_UNAVAILABLE = 15  # the 4-bit field's "not available"
+_GNSS_LAST_DEFINED = 8
+_DAY = 86400.0
 
 Handler = Callable[[dict[str, Any], bytes, int, float, list[Measurement]], None]
 
@@ -31,7 +40,24 @@ Handler = Callable[[dict[str, Any], bytes, int, float, list[Measurement]], None]
 def _utc(days: Any, seconds: Any) -> float | None:
     if days is None or seconds is None:
         return None
-    return float(days) * 86400.0 + float(seconds)
+    return float(days) * _DAY + float(seconds)
+
+
+def _tod_ok(seconds: Any) -> bool:
+    """A time of day is in [0, 86401): 86400.x is the leap second 23:59:60.x."""
+    return seconds is None or 0.0 <= seconds < _DAY + 1.0
+
+
+def _direction(a: Any) -> float | None:
+    """A heading/COG in [0, 2π), or None when it is not one (beyond 2π, negative)."""
+    a = float(a)
+    return a + 0.0 if 0.0 <= a < TWO_PI else None  # + 0.0: −0.0 becomes 0.0
+
+
+def _signed_angle(a: Any) -> float | None:
+    """A variation/deviation in [−π, π], or None when it is not one."""
+    a = float(a)
+    return a if -math.pi <= a <= math.pi else None
 
 
 class N2kDecoder:
@@ -88,8 +114,16 @@ class N2kDecoder:
             return
         self._health.count(f"unknown_pgn.{pgn}")
 
+    def _bad(self, src: str, what: str) -> None:
+        """A value canboat decoded that cannot be true: counted like a failed validation,
+        one message per source and field (not per value)."""
+        self._health.count("rejected.invalid_value")
+        self._health.error(f"{src}: {what}")
+
     def _variation_known(self, same_pgn: Any) -> float | None:
-        """DESIGN §2: the same PGN's variation, else PGN 127258's, else configuration."""
+        """DESIGN §2: the same PGN's variation, else PGN 127258's, else configuration.
+
+        The same PGN's variation is range-checked by the caller."""
         if same_pgn is not None:
             return float(same_pgn)
         if self._variation_pgn is not None:
@@ -104,11 +138,24 @@ class N2kDecoder:
             self._emit.unavailable("127250")
             return
         src = self._sources.name(addr)
+        heading = _direction(hdg)
+        if heading is None:
+            self._bad(src, "PGN 127250 heading outside [0, 2π)")
+            return
         if ref == _REF_TRUE:
-            self._emit(out, "heading", src, t, {"heading": wrap_angle(hdg)})
+            self._emit(out, "heading", src, t, {"heading": heading})
         elif ref == _REF_MAGNETIC:
-            magnetic = hdg + (f.get("deviation") or 0.0)
-            var = self._variation_known(f.get("variation"))
+            dev, own = f.get("deviation"), f.get("variation")
+            if dev is not None and _signed_angle(dev) is None:
+                self._bad(src, "PGN 127250 deviation outside [-π, π]")
+                return
+            if own is not None and _signed_angle(own) is None:
+                # This message's heading needs it: the message goes, the variation
+                # known from 127258 or the configuration stays.
+                self._bad(src, "PGN 127250 variation outside [-π, π]")
+                return
+            magnetic = heading + (dev or 0.0)
+            var = self._variation_known(own)
             if var is None:
                 self._emit(out, "heading_magnetic", src, t, {"heading": wrap_angle(magnetic)})
             else:
@@ -131,12 +178,17 @@ class N2kDecoder:
             return
         self._emit(out, "attitude", self._sources.name(addr), t, {"roll": float(roll), "pitch": float(pitch)})
 
-    def _variation(self, f: dict[str, Any], _p: bytes, _addr: int, _t: float, _out: list[Measurement]) -> None:
+    def _variation(self, f: dict[str, Any], _p: bytes, addr: int, _t: float, _out: list[Measurement]) -> None:
         var = f.get("variation")
         if var is None:
             self._emit.unavailable("127258")
             return
-        self._variation_pgn = float(var)
+        good = _signed_angle(var)
+        if good is None:
+            # Rejected by itself: the last good (or configured) variation stays in use.
+            self._bad(self._sources.name(addr), "PGN 127258 variation outside [-π, π]")
+            return
+        self._variation_pgn = good
 
     def _water_speed(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:
         stw = f.get("speedWaterReferenced")
@@ -168,8 +220,13 @@ class N2kDecoder:
             self._emit.unavailable("129026")
             return
         values: dict[str, Any] = {"sog": float(sog)}
+        if cog is not None:
+            cog = _direction(cog)
+            if cog is None:
+                self._bad(self._sources.name(addr), "PGN 129026 COG outside [0, 2π)")
+                return
         if cog is not None and ref == _REF_TRUE:
-            values["cog"] = wrap_angle(cog)
+            values["cog"] = cog
         elif cog is not None and ref == _REF_MAGNETIC:
             var = self._variation_known(None)
             if var is None:
@@ -185,22 +242,38 @@ class N2kDecoder:
             self._health.count("rejected.no_fix")
             self._health.error(f"{src}: PGN 129029 without a GNSS fix")
             return
+        if method is not None and method != _GNSS_UNAVAILABLE and not 0 < method <= _GNSS_LAST_DEFINED:
+            # 9-13: codes canboat does not define; a fix of unknown quality is not used.
+            self._bad(src, "PGN 129029 GNSS method outside the defined 0-8, 14, 15")
+            return
         if lat is None or lon is None:
             self._emit.unavailable("129029")
             return
         values: dict[str, Any] = {"lat": float(lat), "lon": float(lon)}
-        if method is not None:
-            values["fix_quality"] = int(method)
+        if method is not None and method != _GNSS_UNAVAILABLE:
+            values["fix_quality"] = int(method)  # 15 "unavailable" is no fix quality
         if f.get("numberOfSvs") is not None:
             values["sats"] = int(f["numberOfSvs"])
         if f.get("hdop") is not None:
             values["hdop"] = float(f["hdop"])
-        self._emit(out, "position", src, t, values, _utc(f.get("date"), f.get("time")))
+        tod = f.get("time")
+        if not _tod_ok(tod):
+            # The position stands on its own (t is our receive time); only the
+            # device's time is dropped, counted, and logged once per source.
+            self._health.count("rejected.bad_time_of_day")
+            self._health.error(f"{src}: PGN 129029 time of day beyond 86400 s, t_src dropped")
+            tod = None
+        self._emit(out, "position", src, t, values, _utc(f.get("date"), tod))
 
     def _system_time(self, f: dict[str, Any], _p: bytes, addr: int, t: float, _out: list[Measurement]) -> None:
         # No measurement kind carries time; the offset of the device's clock to ours is
         # what a reviewer of a recording wants to see.
-        t_src = _utc(f.get("date"), f.get("time"))
+        tod = f.get("time")
+        if not _tod_ok(tod):
+            self._health.count("rejected.bad_time_of_day")
+            self._health.error(f"{self._sources.name(addr)}: PGN 126992 time of day beyond 86400 s")
+            return
+        t_src = _utc(f.get("date"), tod)
         if t_src is None:
             self._emit.unavailable("126992")
             return
