@@ -15,14 +15,24 @@ can be decoded but not placed in time, and that must be visible.
 
 from __future__ import annotations
 
+import re
 from typing import BinaryIO, Iterator
 
 from edged.health import ComponentHealth
 from edged.records import RawRecord
+from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
 #: bit of the identifier that marks a SocketCAN error frame in `-l` logs
 _CAN_ERR_FLAG = 0x20000000
 _HEADER_PREFIXES = (b"#", b"interface =")
+# Strict shapes (Python's int() and float() also take "+12", "1_2", " 10 ", "inf").
+_HEX_ID = re.compile(rb"[0-9A-Fa-f]{1,8}")
+_STAMP = re.compile(rb"[0-9]+(?:\.[0-9]*)?")
+_DLC = re.compile(rb"[0-9]{1,3}")
+#: A Linux interface name: printable ASCII without space or `/`; IFNAMSIZ is 16.
+_IFACE = re.compile(rb"[!-.0-~]{1,15}")
+#: Data lengths a CAN FD frame can have (a classic frame: 0..8).
+_FD_LENGTHS = frozenset((0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64))
 
 
 class _Skip(Exception):
@@ -32,7 +42,22 @@ class _Skip(Exception):
         self.counter = counter
 
 
+class _Reject(ValueError):
+    """A candump line whose identifier, length, interface or time cannot be true
+    (counted as `rejected.<reason>`; `sniff` still knows the format by it)."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
 def _ident(text: bytes) -> tuple[int, bool]:
+    if _HEX_ID.fullmatch(text) is None:
+        try:
+            int(text, 16)  # what the reader used to accept: "-12", "+12", "1_2", "0x123"
+        except ValueError:
+            raise ValueError(f"identifier {text!r} is not hex") from None
+        raise _Reject("bad_id", f"identifier {text!r} is not 1 to 8 hex digits")
     can_id = int(text, 16)
     ext = len(text) > 3
     if can_id >= (1 << 29 if ext else 1 << 11):
@@ -40,29 +65,61 @@ def _ident(text: bytes) -> tuple[int, bool]:
     return can_id, ext
 
 
+def _length(n: int, fd: bool) -> None:
+    if fd:
+        if n not in _FD_LENGTHS:
+            raise _Reject("bad_length", f"{n} data bytes: not a CAN FD length")
+    elif n > 8:
+        raise _Reject("bad_length", f"{n} data bytes in a classic CAN frame (at most 8)")
+
+
+def _iface(name: bytes) -> bytes:
+    if _IFACE.fullmatch(name) is None:
+        raise _Reject("bad_interface", f"interface name {name[:32]!r} is not a printable ASCII name")
+    return name
+
+
 def _log_frame(iface: bytes, frame: bytes) -> tuple[bytes, int, bool, bytes]:
     """`ID#DATA`, `ID#R` (remote), `ID##<flags><DATA>` (CAN FD)."""
     ident, sep, data = frame.partition(b"#")
     if not sep:
         raise ValueError("no '#'")
-    if len(ident) == 8 and int(ident, 16) & _CAN_ERR_FLAG:
+    if len(ident) == 8 and _HEX_ID.fullmatch(ident) is not None and int(ident, 16) & _CAN_ERR_FLAG:
         raise _Skip("error_frames")
     can_id, ext = _ident(ident)
     if data[:1] in (b"R", b"r"):
         raise _Skip("remote_frames")
-    if data[:1] == b"#":  # FD: one hex digit of flags, then the data
+    fd = data[:1] == b"#"
+    if fd:  # FD: one hex digit of flags, then the data
+        if data[1:2] not in _HEX_DIGITS:
+            raise ValueError("CAN FD flags are not a hex digit")
         data = data[2:]
-    return iface, can_id, ext, bytes.fromhex(data.decode("ascii"))
+    payload = bytes.fromhex(data.decode("ascii"))
+    _length(len(payload), fd)
+    return _iface(iface), can_id, ext, payload
+
+
+_HEX_DIGITS = frozenset(bytes((c,)) for c in b"0123456789ABCDEFabcdef")
 
 
 def _parse(line: bytes) -> tuple[float | None, bytes | None, int, bool, bytes]:
-    """(time, interface, id, extended, data) of one line; ValueError if not candump."""
+    """(time, interface, id, extended, data) of one line; ValueError if not candump,
+    `_Reject` (a ValueError) if candump with a value that cannot be true. A time that
+    is not a plain non-negative decimal number is NaN (the caller's window refuses
+    it), so that its line is counted as `bad_time` once the rest is known to be a frame."""
     t: float | None = None
     if line[:1] == b"(":
         stamp, sep, line = line[1:].partition(b")")
         if not sep:
             raise ValueError("unclosed '('")
-        t = float(stamp)
+        if _STAMP.fullmatch(stamp) is not None:
+            t = float(stamp)
+        else:
+            try:
+                float(stamp)  # "inf", "nan", "-1", "1e300": a number, not a time
+            except ValueError:
+                raise ValueError(f"time {stamp[:32]!r} is not a number") from None
+            t = float("nan")
     tok = line.split()
     if len(tok) == 2 and b"#" in tok[1]:
         return (t, *_log_frame(tok[0], tok[1]))
@@ -74,7 +131,7 @@ def _parse(line: bytes) -> tuple[float | None, bytes | None, int, bool, bytes]:
     else:
         raise ValueError("too few fields")
     dlc_tok = rest[0]
-    if dlc_tok[:1] != b"[" or dlc_tok[-1:] != b"]":
+    if dlc_tok[:1] != b"[" or dlc_tok[-1:] != b"]" or _DLC.fullmatch(dlc_tok[1:-1]) is None:
         raise ValueError("no [dlc]")
     dlc = int(dlc_tok[1:-1])
     if len(rest) > 1 and rest[1] == b"remote":
@@ -83,6 +140,9 @@ def _parse(line: bytes) -> tuple[float | None, bytes | None, int, bool, bytes]:
     if len(octets) != dlc or any(len(o) != 2 for o in octets):
         raise ValueError(f"expected {dlc} data bytes")
     can_id, ext = _ident(ident)
+    _length(dlc, dlc > 8)  # candump prints an FD frame's length as [12]..[64]
+    if iface is not None:
+        _iface(iface)
     return t, iface, can_id, ext, bytes.fromhex(b"".join(octets).decode("ascii"))
 
 
@@ -101,7 +161,7 @@ def sniff(head: bytes) -> bool:
             continue
         try:
             _parse(line.strip())
-        except _Skip:
+        except (_Skip, _Reject):
             return True
         except (ValueError, UnicodeDecodeError):
             return False
@@ -109,15 +169,30 @@ def sniff(head: bytes) -> bool:
     return False
 
 
-def read(stream: BinaryIO, source: str, health: ComponentHealth, *, bus_from_line: bool) -> Iterator[RawRecord]:
+def read(
+    stream: BinaryIO,
+    source: str,
+    health: ComponentHealth,
+    *,
+    bus_from_line: bool,
+    limits: TimeLimits = DEFAULT_LIMITS,
+) -> Iterator[RawRecord]:
     """RawRecords of a candump log in file order; bad lines are counted and skipped.
 
     With `bus_from_line` the record's source is the interface the line names (`can0`),
     so that several files of one bus share one decoder (a fast-packet message split
     across two files is reassembled); otherwise, or where the line names none, `source`.
+
+    Times are judged by an `edged.timecheck.TimeWindow` from `limits`, from 0 on
+    rather than 1980 (`candump -t z` logs count from zero): NaN, infinite, negative,
+    exponent-written or implausibly late times are `rejected.bad_time`; identifiers
+    that are not 1..8 hex digits `rejected.bad_id`, impossible data lengths
+    `rejected.bad_length`, interface names that are not printable ASCII
+    `rejected.bad_interface`.
     """
     fallback = source.encode()
     untimed = False
+    accept = TimeWindow(limits, earliest=0.0).accept
     for lineno, line in enumerate(stream, 1):
         if not _meaningful(line):
             continue
@@ -125,6 +200,10 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, *, bus_from_lin
             t, iface, can_id, ext, data = _parse(line.strip())
         except _Skip as skip:
             health.count(skip.counter)
+            continue
+        except _Reject as bad:
+            health.count("rejected." + bad.reason)
+            health.error(f"line {lineno}: {bad}")
             continue
         except (ValueError, UnicodeDecodeError) as exc:
             health.count("rejected.bad_line")
@@ -136,5 +215,9 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, *, bus_from_lin
             if not untimed:
                 untimed = True
                 health.error(f"line {lineno}: candump log without timestamps, frames stamped 0.0")
+        elif not accept(t):
+            health.count("rejected." + BAD_TIME)
+            health.error(f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
+            continue
         bus = (iface if bus_from_line and iface else fallback).decode("ascii", "replace")
         yield RawRecord("can", bus, t, data, {"id": can_id, "ext": ext})
