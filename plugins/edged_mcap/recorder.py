@@ -20,10 +20,12 @@ What health says (beside the runtime's `written`, the records handed to this out
 
 A disk without room leaves no file behind: the free space is checked before a file is
 created (at least the floor and room for a chunk), the header is written out at once,
-and a file that got nothing but its header when a write failed is removed (one with
-data stays, for `edged recover`). Retries after a failed attempt back off, from
-`retry_seconds` doubling up to `RETRY_MAX_SECONDS`; a stop by the free-space floor
-alone is checked every `retry_seconds` (it creates nothing).
+and a file that got no complete chunk (nothing but its header, perhaps the start of a
+chunk the full disk cut short) when a write failed is removed, counted
+`files_removed_empty` (a file with data stays, for `edged recover`). Retries after a
+failed attempt back off, from `retry_seconds` doubling up to `RETRY_MAX_SECONDS`; a
+stop by the free-space floor alone is checked every `retry_seconds` (it creates
+nothing). A state is logged once when it is entered, not at every retry.
 
 Memory stays flat however long the recording: the `mcap` Writer keeps one chunk index
 entry per chunk in memory until the file is finished (packed to about 200 bytes by
@@ -32,8 +34,9 @@ finished and the next one begun when it reaches `max_chunks` chunks (`MAX_CHUNKS
 counted `rotations.index`). In directory mode that is one more rotated file; with an
 exact `path` (`edged replay --record OUT.mcap`) the first file keeps the exact name and
 the next ones are numbered beside it: `OUT.mcap`, `OUT.001.mcap`, `OUT.002.mcap`, ...
-(at the reference load, one file per about three hours of data). An exact recording
-that stopped on an error is not resumed, in the file or a numbered one.
+(at the reference load, one file per about three hours of data); `files` lists them.
+An exact recording that stopped on an error after it recorded data is not resumed, in
+that file or a numbered one; one that got nothing (removed) is retried.
 """
 
 from __future__ import annotations
