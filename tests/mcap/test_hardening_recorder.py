@@ -382,7 +382,7 @@ def test_a_chunk_held_in_memory_costs_a_few_hundred_bytes_not_1_4_kb(tmp_path):
             tracemalloc.start()
             try:
                 base = tracemalloc.get_traced_memory()[0]
-                for i in range(2000 * 17):
+                for i in range(1000 * 17):
                     fm.add(channels[i % 14], i, b"x" * 60, i)
                 grown = tracemalloc.get_traced_memory()[0] - base
             finally:
