@@ -5,12 +5,19 @@ a contract. The core implements `run`, `replay` and `check-config`; the others a
 implemented by plugins registered in the entry point group `edged.commands` under the
 subcommand's name and receive the parsed `argparse.Namespace`.
 
-Exit codes: 0 success, 2 bad usage or configuration, 1 runtime failure.
+Exit codes: 0 success, 2 bad usage or configuration, 1 runtime failure. A replay
+stopped by SIGTERM or SIGINT (Ctrl-C) before the end of its logs closes its outputs,
+prints its summary and exits 1: it did not finish. A command whose standard output is
+closed by its reader (`edged inspect FILE | head`) says so in one line and exits 1.
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime as _dt
+import math
+import os
+import re
 import sys
 from typing import Sequence
 
@@ -25,6 +32,56 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # argparse's own exit code is already 2
         self.print_usage(sys.stderr)
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+_DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
+
+
+def replay_date(text: str) -> str:
+    """`--date`: a real calendar day written YYYY-MM-DD (kept as the text)."""
+    try:
+        if not _DATE.fullmatch(text):
+            raise ValueError
+        _dt.date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a date YYYY-MM-DD: {text!r}") from None
+    return text
+
+
+#: The one message for a `--speed` that cannot be used.
+SPEED_RULE = "must be 0 (as fast as possible) or a positive finite factor (1 = real time)"
+
+
+def replay_speed(text: str) -> float:
+    """`--speed`: a finite number (NaN and infinities are refused here; a negative
+    one by `edged replay` itself, with the same message and exit code 2)."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{SPEED_RULE}, not {text!r}")
+    return v
+
+
+def silence_stdout() -> None:
+    """After a broken pipe on standard output: point it at /dev/null, so that the
+    interpreter's flush at exit does not fail again (and print a traceback)."""
+    try:
+        fd = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(fd, sys.stdout.fileno())
+        finally:
+            os.close(fd)
+    except (OSError, ValueError, AttributeError):  # not a real file (tests): nothing to flush
+        pass
+
+
+def stdout_closed(command: str) -> int:
+    """What a command does when the reader of its standard output went away."""
+    silence_stdout()
+    print(f"edged {command}: standard output closed by its reader (broken pipe): output incomplete", file=sys.stderr)
+    return EXIT_FAILURE
 
 
 def _zenoh_opts(p: argparse.ArgumentParser) -> None:
@@ -52,10 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("replay", help="run recorded NMEA, candump or MCAP logs through the pipeline")
     p.add_argument("inputs", nargs="+", metavar="INPUT")
     p.add_argument("-c", "--config", metavar="CONFIG")
-    p.add_argument("--speed", type=float, default=0.0, metavar="0|1|N", help="0: as fast as possible (default), 1: real time")
+    p.add_argument("--speed", type=replay_speed, default=0.0, metavar="0|1|N", help="0: as fast as possible (default), 1: real time")
     p.add_argument("--record", metavar="OUT.mcap", help="record raw data, measurements and estimates to this file")
     p.add_argument("--no-zenoh", action="store_true", help="do not publish over zenoh")
-    p.add_argument("--date", metavar="YYYY-MM-DD", help="date for NMEA logs whose sentences carry only a time of day")
+    p.add_argument("--date", type=replay_date, metavar="YYYY-MM-DD", help="date for NMEA logs whose sentences carry only a time of day")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     _zenoh_opts(p)
 

@@ -5,18 +5,22 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import os
 import signal
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
 from .clock import LiveClock, ReplayClock
-from .cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE
+from .cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, SPEED_RULE, stdout_closed
 from .config import Config, ConfigError, default_config, load_config
+from .health import OK_STATES
 from .logs import reopen_logs, setup_logging
+from .records import HealthRecord
 from .registry import PluginNotFound, Registry
 from .replay import Replayer, ReplayStats, UnknownFormat
-from .runtime import PluginBuildError, Runtime
+from .runtime import OutputHost, PluginBuildError, Runtime
 
 log = logging.getLogger("edged")
 
@@ -45,7 +49,10 @@ def dispatch(args: argparse.Namespace, registry: Registry | None = None) -> int:
         )
         return EXIT_FAILURE
     setup_logging(args.log_level or "info")
-    return int(plugin_cmd(args))
+    try:
+        return int(plugin_cmd(args))
+    except BrokenPipeError:  # `edged score ... | head`: the reader went away
+        return stdout_closed(args.command)
 
 
 def _load(path: str | None, registry: Registry) -> Config:
@@ -171,12 +178,114 @@ def replay_config(cfg: Config, args: argparse.Namespace, registry: Registry) -> 
     return cfg
 
 
-def print_summary(rt: Runtime, stats: ReplayStats, out: TextIO) -> None:
-    """The table at the end of a replay: per source, every counter its input kept."""
-    span = ""
-    if stats.t_first is not None and stats.t_last is not None:
-        span = f", {stats.t_last - stats.t_first:.1f} s of data"
-    print(f"replayed {stats.records} records{span}", file=out)
+def record_target_problem(target: str) -> str | None:
+    """Why `--record OUT` cannot be recorded into, when that can be told before the
+    replay starts (bad usage, exit 2); None when it looks writable. Missing folders are
+    created by the recorder."""
+    p = Path(target)
+    if p.is_dir():
+        return "is a directory (give the file to write, e.g. OUT.mcap)"
+    if p.exists():
+        if not p.is_file():
+            return "is not a regular file"
+        return None if os.access(p, os.W_OK) else "is not writable"
+    folder = p.parent
+    while not folder.exists():
+        if folder == folder.parent:
+            break
+        folder = folder.parent
+    if not folder.is_dir():
+        return f"{folder} is not a directory"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"cannot create files in {folder}"
+    return None
+
+
+def _counted(counters: dict[str, int], prefix: str) -> tuple[int, str]:
+    """The sum of the counters `prefix.*` and their list ("" when none)."""
+    items = sorted((k[len(prefix) + 1:], v) for k, v in counters.items() if k.startswith(prefix + ".") and v)
+    return sum(v for _, v in items), ", ".join(f"{k} {v}" for k, v in items)
+
+
+def output_failure(o: OutputHost, state: str) -> str | None:
+    """Why output `o` did not take everything a replay gave it (None when it did).
+
+    `state` is the output's state before the replay stopped it. An output failed when
+    it raised (restarted by its supervisor: the batch in hand is lost), was in a failed
+    state, stopped on its own (`stops.<state>`: a recorder's full disk or write error)
+    or dropped anything (`dropped.<reason>`, `overflow` of its queue)."""
+    h = o.health
+    c = h.counters
+    why = []
+    if h.restarts:
+        why.append(f"failed {h.restarts} time(s)")
+    if state in ("backoff", "failed", "disk_full", "disk_low"):
+        why.append(f"ended {state}")
+    stops, stop_list = _counted(c, "stops")
+    if stops:
+        why.append(f"stopped ({stop_list})")
+    dropped, _ = _counted(c, "dropped")
+    if dropped:
+        why.append(f"dropped {dropped}")
+    if c.get("overflow"):
+        why.append(f"queue overflow {c['overflow']}")
+    if not why:
+        return None
+    err = f": {h.last_error}" if h.last_error else ""
+    return "; ".join(why) + err
+
+
+def _output_line(o: OutputHost, state: str) -> str:
+    """One output's counts: records handed to it, and what it made of them (for a
+    recorder: messages that reached the file, dropped and rejected, by reason)."""
+    c = o.health.counters
+    parts = [f"{c.get('written', 0)} records handed over"]
+    if "recorded" in c or getattr(o.plugin, "files", None) is not None:
+        parts.append(f"{c.get('recorded', 0)} messages recorded")
+        for prefix in ("dropped", "rejected"):
+            n, items = _counted(c, prefix)
+            parts.append(f"{n} {prefix}" + (f" ({items})" if items else ""))
+        files = [str(f) for f in getattr(o.plugin, "files", None) or []]
+        if files:
+            parts.append("into " + ", ".join(files))
+    else:
+        skip = {"written", "errors"}
+        parts += [f"{k} {v}" for k, v in sorted(c.items()) if k not in skip and v]
+    err = f" ({o.health.last_error})" if o.health.last_error else ""
+    said = f"ok ({state} to the end)" if state in OK_STATES else state
+    return f"output {o.name}: {', '.join(parts)}; {said}{err}"
+
+
+def _utc(t: float) -> str:
+    try:
+        return datetime.fromtimestamp(t, tz=timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    except (OverflowError, OSError, ValueError):
+        return f"t={t!r}"
+
+
+def print_summary(
+    rt: Runtime,
+    stats: ReplayStats,
+    out: TextIO,
+    *,
+    states: dict[str, str] | None = None,
+    interrupted: str | None = None,
+) -> None:
+    """The table at the end of a replay: per source, every counter its input kept.
+
+    `states`: each output's state before the replay stopped it (its state now is
+    `stopped`); `interrupted`: the signal that stopped the replay before its end."""
+    states = states or {}
+    if interrupted is not None:
+        at = _utc(rt.clock.now()) if stats.t_first is not None else "its start"
+        print(f"replay interrupted at {at} (data time) by {interrupted}", file=out)
+        if stats.t_first is not None:
+            print(f"replayed {rt.clock.now() - stats.t_first:.1f} s of data", file=out)
+    else:
+        span = ""
+        if stats.t_first is not None and stats.t_last is not None:
+            span = f", {stats.t_last - stats.t_first:.1f} s of data"
+        print(f"replayed {stats.records} records{span}", file=out)
     rows: list[tuple[str, str, int]] = []
     for h in rt.health.components.values():
         if h.role != "input":
@@ -201,20 +310,28 @@ def print_summary(rt: Runtime, stats: ReplayStats, out: TextIO) -> None:
         print(f"estimator {w.name}: {w.health.counters.get('estimates', 0)} estimates, "
               f"{w.health.counters.get('late', 0)} late, {w.health.counters.get('errors', 0)} errors", file=out)
     for o in rt.outputs:
-        state = o.health.state
-        err = f" ({o.health.last_error})" if o.health.last_error else ""
-        print(f"output {o.name}: {o.health.counters.get('written', 0)} written, {state}{err}", file=out)
+        print(_output_line(o, states.get(o.name, o.health.state)), file=out)
 
 
 def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
+    """`edged replay`: exit 0 when every log was replayed and every output took all it
+    was given; 1 when an output failed (a recording that could not be written, a
+    recorder that stopped) or SIGTERM/SIGINT stopped the replay before its end (the
+    outputs are drained and closed, the summary printed all the same); 2 for bad usage
+    (a flag, a missing or unreadable input, a `--record` path that cannot be a file)."""
+    if args.speed < 0:
+        print(f"edged replay: --speed {SPEED_RULE}, not {args.speed:g}", file=sys.stderr)
+        return EXIT_USAGE
+    if args.record:
+        problem = record_target_problem(args.record)
+        if problem:
+            print(f"edged replay: --record {args.record}: {problem}", file=sys.stderr)
+            return EXIT_USAGE
     try:
         cfg = replay_config(_with_overrides(_load(args.config, registry), args), args, registry)
         opts = _options(args)
     except ConfigError as exc:
         print(exc, file=sys.stderr)
-        return EXIT_USAGE
-    if args.speed < 0:
-        print("edged replay: --speed must be 0 (as fast as possible) or positive", file=sys.stderr)
         return EXIT_USAGE
     paths = [Path(p) for p in args.inputs]
     missing = [str(p) for p in paths if not p.is_file()]
@@ -230,17 +347,50 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
     except PluginBuildError as exc:
         print(f"edged replay: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+    outcome = ReplayOutcome()
     try:
-        stats = asyncio.run(_replay(rt, paths, args))
+        stats = asyncio.run(_replay(rt, paths, args, outcome))
     except UnknownFormat as exc:
         print(f"edged replay: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    print_summary(rt, stats, sys.stdout)
-    failed = [o.name for o in rt.outputs if o.health.state in ("backoff", "failed")]
-    return EXIT_FAILURE if failed else EXIT_OK
+    except KeyboardInterrupt:  # a Ctrl-C outside the replay loop (start-up, shutdown)
+        print("edged replay: interrupted", file=sys.stderr)
+        return EXIT_FAILURE
+    try:
+        print_summary(rt, stats, sys.stdout, states=outcome.states, interrupted=outcome.interrupted)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        return stdout_closed("replay")
+    rc = EXIT_OK
+    for o in rt.outputs:
+        why = output_failure(o, outcome.states.get(o.name, o.health.state))
+        if why is not None:
+            target = f" ({args.record})" if o.name == "record" and args.record else ""
+            print(f"edged replay: output {o.name}{target}: {why}", file=sys.stderr)
+            rc = EXIT_FAILURE
+    if outcome.interrupted is not None:
+        rc = EXIT_FAILURE
+    return rc
 
 
-async def _replay(rt: Runtime, paths: list[Path], args: argparse.Namespace) -> ReplayStats:
+class ReplayOutcome:
+    """What `_replay` leaves for the exit code: the signal that stopped it (if one
+    did) and each output's state before the runtime stopped them all."""
+
+    def __init__(self) -> None:
+        self.interrupted: str | None = None
+        self.states: dict[str, str] = {}
+
+
+async def _replay(
+    rt: Runtime, paths: list[Path], args: argparse.Namespace, outcome: ReplayOutcome | None = None
+) -> ReplayStats:
+    """Replay `paths` through `rt`. SIGTERM and SIGINT stop it as they stop the daemon:
+    no more records are read, what is queued is processed, the outputs are drained and
+    closed (a recording is finished, with its summary); `outcome.interrupted` names
+    the signal."""
+    outcome = outcome if outcome is not None else ReplayOutcome()
+    loop = asyncio.get_running_loop()
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -257,10 +407,47 @@ async def _replay(rt: Runtime, paths: list[Path], args: argparse.Namespace) -> R
     replayer = Replayer(
         rt, paths, speed=args.speed, date=args.date, progress=show_progress if bar is not None else None
     )
-    await rt.start()
+    task: asyncio.Task[ReplayStats] | None = None
+
+    def on_signal(sig: signal.Signals) -> None:
+        if outcome.interrupted is not None:
+            return  # already stopping: the outputs are being drained and closed
+        outcome.interrupted = sig.name
+        log.info("event=replay-stopping signal=%s t=%s", sig.name, rt.clock.now())
+        if task is not None:
+            task.cancel()
+
+    installed: list[int] = []
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        try:
+            loop.add_signal_handler(sig, on_signal, sig)
+            installed.append(sig)
+        except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
+            pass
     try:
-        return await replayer.run()
+        await rt.start()
+        task = loop.create_task(replayer.run(), name="replay")
+        if outcome.interrupted is not None:  # a signal while the outputs opened
+            task.cancel()
+        log.info("event=replay-started inputs=%d speed=%g", len(paths), args.speed)
+        try:
+            return await task
+        except asyncio.CancelledError:
+            if outcome.interrupted is None or not task.cancelled():
+                raise  # not ours: whoever cancelled this coroutine
+            stats = replayer.stats
+            stats.t_last = rt.clock.now() if stats.t_first is not None else None
+            # What a finished replay ends with: the workers' last steps, the health.
+            await rt.finish_workers()
+            snap = rt.health_snapshot()
+            rt.router.publish(HealthRecord(snap["t"], snap))
+            return stats
     finally:
+        if task is not None and not task.done():
+            task.cancel()
+        outcome.states = {o.name: o.health.state for o in rt.outputs}
         await rt.stop()
+        for sig in installed:
+            loop.remove_signal_handler(sig)
         if bar is not None:
             bar.close()

@@ -3,6 +3,9 @@
 Rows are the messages' JSON payloads flattened with dots, in file order, plus the
 message's `log_time` (ns). CSV columns are the union over all rows (first-seen order),
 found in a first pass so that memory does not grow with the file.
+
+Only JSON messages can be exported (what edged records); a topic in another encoding
+(a ROS 2 recording's `cdr`, protobuf ...) is refused by name, exit 2.
 """
 
 from __future__ import annotations
@@ -19,19 +22,34 @@ from mcap.exceptions import McapError
 
 from ..flatten import cell, flatten
 from ..reading import ReadReport, iter_messages
-from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
+from ..schemas import MESSAGE_ENCODING
+from ._common import EXIT_OK, EXIT_USAGE, OutputError, command, existing_file, fail
 
 
 class _NoTopic(LookupError):
     pass
 
 
+class _Foreign(ValueError):
+    """The topic's messages are in an encoding edged does not read (the description)."""
+
+
+def _encoding(ch: Any, schema: Any) -> str:
+    enc = repr(ch.message_encoding or "")
+    if schema is not None and (schema.name or schema.encoding):
+        enc += f" (schema {schema.name!r}" + (f", {schema.encoding}" if schema.encoding else "") + ")"
+    return enc
+
+
 def rows(path: Path, topic: str, report: ReadReport) -> Iterator[dict[str, Any]]:
-    """Flat rows of `topic`; undecodable messages are counted in `report.orphans`."""
+    """Flat rows of `topic`; undecodable messages are counted in `report.orphans`;
+    `_Foreign` for a topic that is not JSON."""
     with open(path, "rb") as f:
-        for ch, _schema, msg in iter_messages(f, report):
+        for ch, schema, msg in iter_messages(f, report):
             if ch.topic != topic:
                 continue
+            if ch.message_encoding != MESSAGE_ENCODING:
+                raise _Foreign(_encoding(ch, schema))
             try:
                 payload = json.loads(msg.data)
             except ValueError:
@@ -78,18 +96,64 @@ def write_jsonl(path: Path, topic: str, out: TextIO) -> int:
 _WRITERS = {"csv": write_csv, "jsonl": write_jsonl}
 
 
+class _Sink:
+    """The output stream, whose write errors say they are the output's: a failing
+    write is an `OutputError` named after the output, a closed standard output the
+    BrokenPipeError the command's wrapper answers."""
+
+    def __init__(self, out: TextIO, name: str) -> None:
+        self._out = out
+        self._name = name
+
+    def write(self, text: str) -> int:
+        try:
+            return self._out.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(exc.errno, exc.strerror or str(exc), self._name) from None
+
+    def flush(self) -> None:
+        try:
+            self._out.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(exc.errno, exc.strerror or str(exc), self._name) from None
+
+
+def _discard(out_name: str) -> None:
+    """Remove the output file a refused export created (never a device or a FIFO)."""
+    p = Path(out_name)
+    if p.is_file() and not p.is_symlink():
+        p.unlink(missing_ok=True)
+
+
+@command("export")
 def main(args: argparse.Namespace) -> int:
     path = existing_file(args.file)
     if path is None:
         return EXIT_USAGE
     out_name = getattr(args, "output", None)
+    if out_name and Path(out_name).exists() and Path(out_name).resolve() == path.resolve():
+        return fail(f"{out_name}: is the recording being exported (-o would overwrite it)", EXIT_USAGE)
     try:
         target = open(out_name, "w", newline="", encoding="utf-8") if out_name else nullcontext(sys.stdout)
         with target as out:
-            n = _WRITERS[args.format](path, args.topic, out)
+            sink = _Sink(out, out_name or "standard output")
+            n = _WRITERS[args.format](path, args.topic, sink)  # type: ignore[arg-type]
+            sink.flush()
+    except _Foreign as exc:
+        if out_name:
+            _discard(out_name)
+        return fail(
+            f"{path}: topic {args.topic!r} is encoded as {exc}: edged reads only "
+            f"{MESSAGE_ENCODING!r} messages (recordings made by edged)",
+            EXIT_USAGE,
+        )
     except _NoTopic:
         if out_name:
-            Path(out_name).unlink(missing_ok=True)
+            _discard(out_name)
         try:
             known = ", ".join(_topics(path)) or "none"
         except McapError:
@@ -97,6 +161,8 @@ def main(args: argparse.Namespace) -> int:
         return fail(f"{path}: no messages on topic {args.topic!r} (topics: {known})", EXIT_USAGE)
     except McapError as exc:
         return fail(f"{path}: {exc}")
+    except BrokenPipeError:
+        raise  # standard output closed by its reader: `command` says so
     except OSError as exc:
         return fail(f"{exc.filename or path}: {exc.strerror or exc}")
     if out_name:

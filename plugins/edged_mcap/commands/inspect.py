@@ -10,7 +10,7 @@ from typing import TextIO
 from mcap.exceptions import McapError
 
 from ..stats import FileStats, file_stats
-from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, command, existing_file, fail
 
 
 def _utc(ns: int | None) -> str:
@@ -58,6 +58,7 @@ def render(s: FileStats, out: TextIO) -> None:
         print(f"{c.topic:<{w}}  {c.schema:<{ws}}  {c.count:>9}  {rate}  {c.span_s:10.3f}  {gap}  {at}{back}", file=out)
 
 
+@command("inspect")
 def main(args: argparse.Namespace) -> int:
     path = existing_file(args.file)
     if path is None:

@@ -16,7 +16,7 @@ from typing import Any, Callable
 from mcap.exceptions import McapError
 
 from ..plotdata import PlotData, collect, local_xy
-from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, command, existing_file, fail
 
 #: (panel key, y label) of the time-series panels, top to bottom.
 _TIME_PANELS = [
@@ -94,6 +94,7 @@ def render(data: PlotData, out: Path, title: str) -> list[str]:
     return [name for name, _ in drawers]
 
 
+@command("plot")
 def main(args: argparse.Namespace) -> int:
     if not _have_matplotlib():
         return fail("plot needs matplotlib: pip install 'edged[plot]'")

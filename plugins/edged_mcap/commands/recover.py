@@ -7,9 +7,10 @@ import argparse
 from mcap.exceptions import McapError
 
 from ..recovery import recover
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, command, existing_file, fail
 
 
+@command("recover")
 def main(args: argparse.Namespace) -> int:
     src = existing_file(args.file)
     if src is None:
