@@ -64,6 +64,17 @@ def replay_speed(text: str) -> float:
     return v
 
 
+def positive_seconds(text: str) -> float:
+    """A duration in seconds: finite and above zero."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not math.isfinite(v) or v <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive finite number of seconds, not {text!r}")
+    return v
+
+
 def silence_stdout() -> None:
     """After a broken pipe on standard output: point it at /dev/null, so that the
     interpreter's flush at exit does not fail again (and print a traceback)."""
@@ -101,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     _zenoh_opts(p)
 
     p = sub.add_parser("demo", help="run the built-in simulated vessel end to end")
-    p.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds (default: until Ctrl-C)")
+    p.add_argument("--duration", type=positive_seconds, default=None, metavar="S", help="stop after S seconds (default: until Ctrl-C)")
     p.add_argument("--record-dir", metavar="DIR", help="where to record (default ./edged-demo-<UTC start>/)")
     p.add_argument("--no-zenoh", action="store_true", help="do not publish over zenoh")
     _zenoh_opts(p)

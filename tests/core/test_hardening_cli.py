@@ -208,3 +208,13 @@ def test_replay_summary_into_a_closed_pipe_is_one_line_not_a_traceback(tmp_path)
     assert proc.stderr.strip().splitlines() == [
         "edged replay: standard output closed by its reader (broken pipe): output incomplete"
     ]
+
+
+@pytest.mark.parametrize("duration", ["nan", "inf", "0", "-5"])
+def test_a_demo_duration_that_cannot_be_waited_for_is_refused(duration, capsys):
+    code, err = _parse_exit(["demo", f"--duration={duration}"], capsys)
+    assert code == 2 and "--duration" in err
+
+
+def test_a_demo_duration_in_seconds_passes():
+    assert build_parser().parse_args(["demo", "--duration", "2.5"]).duration == 2.5
