@@ -17,7 +17,7 @@ import asyncio
 import logging
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 from .health import ComponentHealth
 
@@ -38,6 +38,10 @@ class BoundedQueue:
 
     def __len__(self) -> int:
         return len(self._items)
+
+    def __iter__(self) -> Iterator[Any]:
+        """The queued items, oldest first (without taking them)."""
+        return iter(self._items)
 
     def put(self, item: Any) -> bool:
         items = self._items

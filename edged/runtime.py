@@ -340,8 +340,8 @@ class Runtime:
             await w.finish(timeout)
 
     def worker_backlog(self) -> int:
-        """Largest queue of a worker: replay waits on it instead of dropping."""
-        return max((len(w.sub.queue) for w in self.workers), default=0)
+        """Largest backlog of a worker: replay waits on it instead of dropping."""
+        return max((w.backlog for w in self.workers), default=0)
 
     async def _cancel(self, tasks: list[asyncio.Task[None]]) -> None:
         """Cancel and wait, bounded: a plugin that ignores cancellation is left behind."""

@@ -80,17 +80,33 @@ async def test_chain_sees_a_measurement_then_its_upstream_estimate_whatever_the_
     assert got["chain"] == reference
 
 
-def _reference_chain(registry) -> list:
+def _reference_chain(registry, n: int = 40) -> list:
     from core_dummies import ChainCore, SumCore
 
     s, c = SumCore(None), ChainCore("sum")
     out = []
-    for i in range(40):
+    for i in range(n):
         m = yaw(100.0 + i * 0.1, float(i % 5))
         for rec in [m, *s.step(m)]:
             for e in c.step(rec):
                 out.append((e.t, {**e.values, "stale": False, "age": 0.0}))
     return out
+
+
+@pytest.mark.parametrize("placement", ["loop", "process"])
+async def test_a_burst_larger_than_a_batch_keeps_the_order(registry, placement):
+    """More inputs than one batch takes, published before the workers even run: the
+    rest still queued must hold the watermark back (nothing counted late)."""
+    n = 3000
+    est = {"sum": {"type": "sum", "worker": placement}, "chain": {"type": "chain", "upstream": "sum"}}
+    rt = _runtime(registry, {"estimators": est})
+    for i in range(n):
+        rt.router.publish(yaw(100.0 + i * 0.1, float(i % 5)))
+    await rt.start()
+    await settle(rt)
+    await rt.stop()
+    assert all(w.health.counters.get("late", 0) == 0 for w in rt.workers)
+    assert streams(ListOutput.instances[0].records)["chain"] == _reference_chain(registry, n)
 
 
 async def test_estimates_are_published_under_the_instance_name_with_the_plugin_kind(registry):
