@@ -23,7 +23,8 @@ class McapConfig(OutputConfig):
     `path` records exactly one file (what `edged replay --record OUT.mcap` asks for);
     `directory` records rotated files `edged-<UTC start>.mcap` (the daemon). Rotation,
     retention and the retry after a stop apply to `directory` only: an exact file is
-    never split or reopened (reopening would truncate what it holds).
+    never reopened once it holds data (reopening would truncate it), and split only at
+    the chunk-index bound, into numbered files `OUT.001.mcap`, ... (flat memory).
     """
 
     type: str = "mcap"
