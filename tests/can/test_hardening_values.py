@@ -16,12 +16,13 @@ import os
 import struct
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.records import KINDS, TWO_PI, RawRecord, validate_measurement
+from edged_can import n2k_codec
 from edged_can.config import CanConfig
 from edged_can.decoder import CanDecoder
 
@@ -292,13 +293,60 @@ def _check_emitted(ms) -> None:
             assert math.isfinite(m.t_src)
 
 
+_CONFIGS: dict[float | None, CanConfig] = {}
+
+
+def _config(variation: float | None) -> CanConfig:
+    """One configuration per variation (loading the reference DBC costs milliseconds)."""
+    cfg = _CONFIGS.get(variation)
+    if cfg is None:
+        cfg = _CONFIGS[variation] = CanConfig.model_validate({"type": "can", "magnetic_variation_deg": variation})
+    return cfg
+
+
+def _check_against_canboat(frames: list[tuple[int, bytes]], ms) -> None:
+    """Oracle: what is emitted from a message is what canboat decodes, never wrapped;
+    a GNSS fix quality is a defined one and its time of day lies within a day."""
+    if not ms:
+        return
+    can_id = frames[0][0]
+    pgn = (can_id >> 8) & 0x3FFFF
+    pgn = pgn & 0x3FF00 if (pgn >> 8) & 0xFF < 240 else pgn
+    data = [d for _, d in frames]
+    if pgn in FAST:
+        payload = (data[0][2:8] + b"".join(d[1:8] for d in data[1:]))[: data[0][1]]
+    else:
+        payload = data[0]
+    f = n2k_codec.decode_fields(pgn, payload, can_id & 0xFF, 255, 2)
+    (m,) = ms
+    if pgn == 127250 and f["reference"] == 0:
+        assert m.values["heading"] == f["heading"], (f, m)
+    if pgn == 129026 and f["cogReference"] == 0 and "cog" in m.values:
+        assert m.values["cog"] == f["cog"], (f, m)
+    if pgn == 129029:
+        assert m.values.get("fix_quality", 1) in range(1, 9), (f, m)
+        if m.t_src is not None:
+            assert 0.0 <= m.t_src - f["date"] * 86400.0 < 86401.0, (f, m)
+
+
+_E_HEADING = [(_n2k_id(127250, 28), _heading_raw(0xFFFC))]
+_E_VARIATION = [[(_n2k_id(127258, 40), _variation(-32000))], [(_n2k_id(127250, 28), _heading_raw(1000, 1))]]
+_E_GNSS = [(_n2k_id(129029, 21), f) for f in _fast_frames(_gnss_payload(method=9), 1)]
+_E_GNSS_TIME = [(_n2k_id(129029, 21), f) for f in _fast_frames(_gnss_payload(secs=4 * 86400.0), 2)]
+
+
 @FUZZ
 @given(messages=st.lists(_message(), min_size=1, max_size=6), variation=st.sampled_from([None, -3.0, 179.0]))
+@example(messages=[_E_HEADING, _E_GNSS, _E_GNSS_TIME], variation=None)
+@example(messages=_E_VARIATION, variation=-3.0)
 def test_fuzz_every_handled_pgn_emits_only_true_values(messages, variation):
     health = ComponentHealth("can0", "input", "can", ManualClock(1000.0))
-    dec = CanDecoder("can0", CanConfig.model_validate({"type": "can", "magnetic_variation_deg": variation}), health)
+    dec = CanDecoder("can0", _config(variation), health)
     for frames in messages:
+        ms = []
         for can_id, data in frames:
-            _check_emitted(dec.decode(RawRecord("can", "can0", 1000.0, data, {"id": can_id, "ext": True})))
+            ms += dec.decode(RawRecord("can", "can0", 1000.0, data, {"id": can_id, "ext": True}))
+        _check_emitted(ms)
+        _check_against_canboat(frames, ms)
     v = dec._n2k._variation_pgn
     assert v is None or -math.pi <= v <= math.pi

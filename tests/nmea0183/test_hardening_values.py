@@ -16,7 +16,7 @@ from functools import reduce
 from operator import xor
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from edged.clock import ManualClock
@@ -267,14 +267,18 @@ def test_fix_quality_and_offset_bounds_in_the_kinds():
 
 # ---- item 5: property-based fuzzing of every supported sentence type ---------------
 
+#: The values of issue 10 and other edges, drawn as often as all random numbers.
+_EDGES = st.sampled_from([
+    "", "-0", "-0.0", "360", "360.0", "359.99999999999999", "0", "1_0", " 10 ", "nan", "inf",
+    "1e308", "-90", "99", "9", "181", "-181", "1e300", "100.5",
+])
 _NUMBERISH = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True).map(repr),
     st.floats(-1e4, 1e4).map(lambda x: f"{x:.3f}"),
     st.integers(-1000, 100000).map(str),
-    st.sampled_from(["", "-0", "-0.0", "360", "0", "1_0", " 10 ", "nan", "1e308", "-90", "99"]),
 )
 _LETTER = st.sampled_from(["", "A", "V", "N", "S", "E", "W", "T", "M", "K", "F", "f", "D", "R", "P"])
-_FIELD = st.one_of(_NUMBERISH, _LETTER, st.text(alphabet="0123456789.-+ENSWAVTM_", max_size=10))
+_FIELD = st.one_of(_EDGES, _NUMBERISH, _LETTER, st.text(alphabet="0123456789.-+ENSWAVTM_", max_size=10))
 #: A valid sentence of every supported type, which the fuzzer mutates field by field
 #: (random fields alone would hardly ever make a position).
 _TEMPLATES = {
@@ -327,13 +331,31 @@ def _check_emitted(ms) -> None:
         assert m.t_src is None or math.isfinite(m.t_src)
 
 
+def _check_true_heading(stype: str, line: bytes, ms) -> None:
+    """Oracle for HDT/THS: a heading comes only from a field in [0, 360], unwrapped."""
+    if stype not in ("HDT", "THS") or not ms:
+        return
+    deg = float(line.decode().split("*")[0].split(",")[1])
+    assert 0.0 <= deg <= 360.0, (line, ms)
+    if deg < 360.0:
+        assert ms[0].values["heading"] == pytest.approx(math.radians(deg), abs=1e-12), (line, ms)
+
+
 @FUZZ
 @given(batch=st.lists(_sentence(), min_size=1, max_size=8), variation=st.sampled_from([None, -3.0, 179.5]))
+@example(batch=[("HDT", _s("GPHDT,-0,T")), ("HDT", _s("GPHDT,400,T"))], variation=None)
+@example(
+    batch=[("RMC", _s("GPRMC,120000,A,5000.0000,N,00100.0000,E,5.0,90.0,011123,nan,E,A")),
+           ("HDM", _s("HCHDM,100.0,M"))],
+    variation=-3.0,
+)
 def test_fuzz_every_sentence_type_emits_only_true_values(batch, variation):
     health = _health()
     dec = Nmea0183Decoder("gnss1", health, DecoderSettings(variation=variation))
-    for _stype, line in batch:
-        _check_emitted(dec.decode(RawRecord("nmea0183", "gnss1", T, line)))
+    for stype, line in batch:
+        ms = dec.decode(RawRecord("nmea0183", "gnss1", T, line))
+        _check_emitted(ms)
+        _check_true_heading(stype, line, ms)
     assert "decode_errors" not in health.counters
     # The decoder's own variation stays usable whatever RMC/HDG said.
     v = dec._env.variation
