@@ -50,7 +50,9 @@ def dispatch(args: argparse.Namespace, registry: Registry | None = None) -> int:
         return EXIT_FAILURE
     setup_logging(args.log_level or "info")
     try:
-        return int(plugin_cmd(args))
+        rc = int(plugin_cmd(args))
+        sys.stdout.flush()  # what is still buffered fails here, not at the interpreter's exit
+        return rc
     except BrokenPipeError:  # `edged score ... | head`: the reader went away
         return stdout_closed(args.command)
 

@@ -218,3 +218,24 @@ def test_a_demo_duration_that_cannot_be_waited_for_is_refused(duration, capsys):
 
 def test_a_demo_duration_in_seconds_passes():
     assert build_parser().parse_args(["demo", "--duration", "2.5"]).duration == 2.5
+
+
+def test_any_plugin_command_into_a_closed_pipe_is_one_line_not_a_traceback(tmp_path):
+    # `edged sim` has no guard of its own: the dispatcher's catches it.
+    r, w = os.pipe()
+    os.close(r)
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "edged.cli", "sim", "faults", "--out", str(tmp_path / "sim"), "--duration", "5"],
+            stdout=w,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=60,
+        )
+    finally:
+        os.close(w)
+    assert proc.returncode == 1
+    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "edged sim: standard output closed by its reader (broken pipe): output incomplete"
+    )
