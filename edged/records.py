@@ -78,10 +78,12 @@ def _k(name: str, doc: str, *fields: Field) -> KindSpec:
     return KindSpec(name, fields, doc)
 
 
-#: Angles lie in [0, 2π): the upper bound is the largest float below 2π, so that the
-#: inclusive comparison of validate_measurement excludes 2π itself.
+_ANGLE_BOUND = dict(lo=0.0, hi=TWO_PI)
+
+#: The largest angle in [0, 2π): validate_measurement checks angle fields against it,
+#: so that its inclusive comparison excludes 2π itself (`Field.hi` says 2π, the
+#: half-open bound).
 ANGLE_MAX = math.nextafter(TWO_PI, 0.0)
-_ANGLE_BOUND = dict(lo=0.0, hi=ANGLE_MAX)
 
 #: Every measurement kind, DESIGN §2. SI units: m, m/s, m/s², rad, rad/s.
 KINDS: dict[str, KindSpec] = {
@@ -311,8 +313,15 @@ _BIG = sys.float_info.max
 def _checks(spec: KindSpec) -> tuple[tuple[str, bool, bool, float, float], ...]:
     # Unbounded fields get ±float max, so that one chained comparison rejects NaN
     # (every comparison with NaN is false) and ±inf alike.
+    # An angle's bound 2π is exclusive: checked as the float below it.
     return tuple(
-        (f.name, f.required, f.unit == "name", -_BIG if f.lo is None else f.lo, _BIG if f.hi is None else f.hi)
+        (
+            f.name,
+            f.required,
+            f.unit == "name",
+            -_BIG if f.lo is None else f.lo,
+            _BIG if f.hi is None else (ANGLE_MAX if f.angle and f.hi == TWO_PI else f.hi),
+        )
         for f in spec.fields
     )
 
