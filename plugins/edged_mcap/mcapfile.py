@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+import stat
 from pathlib import Path
 from typing import BinaryIO
 
@@ -134,6 +135,8 @@ class McapFile:
             return False  # not a file of ours on disk (a test's stream)
         try:
             st = os.stat(self.path)
+            if not stat.S_ISREG(st.st_mode):
+                return False  # a device, a FIFO (`--record /dev/full`): never ours to delete
             if (st.st_dev, st.st_ino) != self._ident:
                 return False  # the name now belongs to another file
             if header_only and st.st_size >= self._first_chunk_end():
@@ -161,4 +164,6 @@ def _identity(stream: BinaryIO) -> tuple[int, int] | None:
         st = os.fstat(stream.fileno())
     except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
         return None
+    if not stat.S_ISREG(st.st_mode):
+        return None  # a device or a FIFO is never a file of ours to remove
     return (st.st_dev, st.st_ino)

@@ -393,3 +393,19 @@ def test_a_chunk_held_in_memory_costs_a_few_hundred_bytes_not_1_4_kb(tmp_path):
 
     assert per_chunk(False) > 1000  # the library's ChunkIndex objects
     assert per_chunk(True) < 300
+
+
+def test_a_recording_onto_something_that_is_not_a_regular_file_is_never_removed(tmp_path):
+    """`--record /dev/full` once deleted the device: only regular files of ours go."""
+    import os
+
+    from edged_mcap.mcapfile import McapFile
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    fd = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)  # read-write: opening does not wait
+    stream = os.fdopen(fd, "wb", buffering=0)
+    f = McapFile(stream, fifo, compression="none", chunk_size=1024, library="t", metadata={})
+    assert f.remove_if_empty(header_only=False) is False
+    assert fifo.exists() and not fifo.is_file()
+    stream.close()
