@@ -230,7 +230,7 @@ def test_dpt_plausible_offset_is_kept():
     assert m.values == {"depth": 12.5, "offset": -2.5}
 
 
-@pytest.mark.parametrize("text", ["1_0", " 10 ", "10 ", " 10", "1e1", "nan", "inf", "+inf", "0x10", "", ".", "-", "1.2.3"])
+@pytest.mark.parametrize("text", ["1_0", " 10 ", "10 ", " 10", "1e1", "nan", "inf", "+inf", "0x10", "", ".", "-", "1.2.3", "5-", "+-5", "--5", "1+2"])
 def test_strict_number_parser_refuses_what_python_accepts(text):
     with pytest.raises(ValueError):
         num(text)
