@@ -123,9 +123,9 @@ def _lat(value: str, hemi: str) -> float:
     if minutes >= 60.0 or v < 0.0:
         raise Invalid("minutes out of range")
     if hemi == "N":
-        return deg + minutes / 60.0
+        return deg + minutes / 60.0 + 0.0  # + 0.0: "-0000.00" gives 0.0, not -0.0
     if hemi == "S":
-        return -(deg + minutes / 60.0)
+        return 0.0 - (deg + minutes / 60.0)  # 0.0 - x: S of 0 is 0.0, not -0.0
     raise Invalid("hemisphere")
 
 
@@ -137,9 +137,9 @@ def _lon(value: str, hemi: str) -> float:
     if minutes >= 60.0 or v < 0.0:
         raise Invalid("minutes out of range")
     if hemi == "E":
-        return deg + minutes / 60.0
+        return deg + minutes / 60.0 + 0.0
     if hemi == "W":
-        return -(deg + minutes / 60.0)
+        return 0.0 - (deg + minutes / 60.0)
     raise Invalid("hemisphere")
 
 

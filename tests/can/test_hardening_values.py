@@ -288,6 +288,7 @@ def _check_emitted(ms) -> None:
             assert math.isfinite(v), (m, f.name)
             if f.angle:
                 assert 0.0 <= v < TWO_PI, (m, f.name)
+            if f.unit in ("rad", "deg") and v == 0.0:  # headings, lat/lon, roll/pitch
                 assert math.copysign(1.0, v) == 1.0, (m, f.name)  # no -0.0
         if m.t_src is not None:
             assert math.isfinite(m.t_src)

@@ -155,6 +155,11 @@ def test_angle_bound_excludes_two_pi():
         validate_measurement("heading", {"heading": TWO_PI})
 
 
+def test_position_on_the_equator_and_meridian_is_positive_zero():
+    (m,) = Rig()("GPGGA,120000,0000.0000,S,00000.0000,W,1,08,0.9,10.0,M,,,,")
+    assert all(_positive_zero(m.values[k]) for k in ("lat", "lon")), m.values
+
+
 # ---- item 2: a bad magnetic variation is rejected by itself ------------------------
 
 @pytest.mark.parametrize("var", ["nan,E", "200.0,E", "181,W", "1_0,E", "5.0,X"])
@@ -327,6 +332,7 @@ def _check_emitted(ms) -> None:
             assert math.isfinite(v), (m, f.name)
             if f.angle:
                 assert 0.0 <= v < TWO_PI, (m, f.name)
+            if f.unit in ("rad", "deg") and v == 0.0:  # headings, lat/lon, roll/pitch
                 assert math.copysign(1.0, v) == 1.0, (m, f.name)  # no -0.0
         assert m.t_src is None or math.isfinite(m.t_src)
 
