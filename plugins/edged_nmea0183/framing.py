@@ -30,11 +30,14 @@ BAD_TAG = "bad_tag"  # TAG block not closed, or its `c:` is not a number
 TAG_CHECKSUM = "tag_checksum"
 BAD_TIMESTAMP = "bad_timestamp"  # epoch prefix or TAG time not a finite, positive number
 NO_TIME = "no_time"  # replay: a line before any time is known (counted by the stamper)
+#: replay: a TAG/epoch time outside the log's plausible window (edged.timecheck),
+#: e.g. `c:20000000000` (year 2603) or `c:1e300`; counted by the replay reader.
+BAD_TIME = "bad_time"
 
 #: Not a rejection: `#` lines are comments (gpsd logs start with a header of them).
 COMMENT = "comment"
 
-REJECT_REASONS = (TOO_LONG, NON_ASCII, NO_START, NO_CHECKSUM, CHECKSUM, BAD_TAG, TAG_CHECKSUM, BAD_TIMESTAMP, NO_TIME)
+REJECT_REASONS = (TOO_LONG, NON_ASCII, NO_START, NO_CHECKSUM, CHECKSUM, BAD_TAG, TAG_CHECKSUM, BAD_TIMESTAMP, NO_TIME, BAD_TIME)
 
 _HEX = frozenset(b"0123456789ABCDEFabcdef")
 #: `hh` -> its value, for every pair of hex digits: one lookup both checks and converts.

@@ -2,43 +2,57 @@
 
 Reads in chunks through the same Framer as the live input, then stamps each line with
 the log's time (ReplayStamper). Counters as the live input (`lines`, `accepted`,
-`rejected.<reason>`, `comments`) plus `rejected.no_time` and `assumed_date`.
+`rejected.<reason>`, `comments`) plus `rejected.no_time`, `rejected.bad_time` (a TAG
+or epoch time outside the plausible window of edged.timecheck) and `assumed_date`.
 """
 
 from __future__ import annotations
 
+import re
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord
+from edged.timecheck import TimeWindow, limits_of
 
 from .framer import Framer
-from .framing import NO_TIME, Framed, frame
+from .framing import BAD_TIME, NO_TIME, Framed
 from .reporting import ProblemReporter
 from .timeofday import ReplayStamper, parse_date_option
 
 PROTOCOL = "nmea0183"
 CHUNK = 1 << 16
-_SNIFF_LINES = 40
+#: Lines `sniff` judges at most (a head of 4 KiB holds about 50 sentences).
+_SNIFF_LINES = 400
 #: NMEA 2000 messages in 0183 framing (iKonvert `!PDGY`, `$PCDIN`, Actisense `$MXPGN`):
 #: a log of these is not an NMEA 0183 log, and replaying it as one would only count
 #: every line as unknown. Refusing it lets `edged replay` say the format is unsupported.
 _N2K_ENCAPSULATED = (b"!PDGY,", b"$PCDIN,", b"$MXPGN,")
+#: The shape of an NMEA 0183 line, valid or not: an optional TAG block or UNIX-time
+#: prefix, `$` or `!`, an address of letters and digits, then a field or the checksum.
+_SHAPE = re.compile(rb"(?:\\[^\\]*\\|[0-9]+(?:\.[0-9]*)?[ \t]+)?([$!][A-Z0-9]{3,10})(?:,|\*[0-9A-Fa-f]{2}$)")
+_N2K_ADDRESSES = frozenset(p[:-1] for p in _N2K_ENCAPSULATED)
 
 
 def sniff(head: bytes) -> bool:
-    """True when most of the first non-comment lines of `head` are NMEA sentences."""
+    """True when most of the lines of `head` that are not comments are shaped like
+    NMEA 0183 sentences (`$`/`!`, an address, fields; optionally a TAG block or time
+    before). Their checksums are not judged here: a noisy stretch of bad checksums
+    at the start of a good log is the reader's to count, not a reason to refuse the
+    file. NMEA 2000 wrapped in 0183 framing counts against (another format)."""
     lines = head.replace(b"\r", b"\n").split(b"\n")
     if len(lines) > 1:
         lines.pop()  # maybe cut in the middle
     good = bad = 0
+    match = _SHAPE.match
     for line in lines:
-        r = frame(line, "allow-missing")
-        if r is None or r == "comment":
+        line = line.strip()
+        if not line or line[:1] == b"#":
             continue
-        if isinstance(r, str) or r.sentence.startswith(_N2K_ENCAPSULATED):
-            bad += 1  # NMEA 2000 wrapped in 0183 framing is another format
+        m = match(line)
+        if m is None or m.group(1) in _N2K_ADDRESSES:
+            bad += 1
         else:
             good += 1
         if good + bad >= _SNIFF_LINES:
@@ -78,11 +92,17 @@ def read_log(
         ]
 
     push = stamper.push
+    # A TAG/epoch time outside the log's plausible window costs its line only: it is
+    # judged before the stamper sees it, so it never sets the time of later lines.
+    accept = TimeWindow(limits_of(options)).accept
     while True:
         chunk = stream.read(CHUNK)
         placed: list[tuple[Framed, float]] = []
         n_assumed = 0
         for fr in framer.feed(chunk) if chunk else framer.flush():
+            if fr.t_log is not None and not accept(fr.t_log):
+                framer.reject(BAD_TIME)
+                continue
             ready = push(fr)
             if ready is None:
                 framer.reject(NO_TIME)
