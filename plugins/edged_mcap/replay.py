@@ -15,6 +15,7 @@ from mcap.exceptions import McapError
 
 from edged.health import ComponentHealth
 from edged.records import RawRecord
+from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
 from .channels import RAW_PREFIX, NotRaw, raw_from_message
 from .reading import ReadReport, iter_messages
@@ -22,9 +23,18 @@ from .reading import ReadReport, iter_messages
 __all__ = ["read_raw"]
 
 
-def read_raw(stream: BinaryIO, health: ComponentHealth, name: str | Path) -> Iterator[RawRecord]:
-    """RawRecords of every `/raw/...` channel in file order; rejects are counted."""
+def read_raw(
+    stream: BinaryIO, health: ComponentHealth, name: str | Path, limits: TimeLimits = DEFAULT_LIMITS
+) -> Iterator[RawRecord]:
+    """RawRecords of every `/raw/...` channel in file order; rejects are counted.
+
+    A record's `t` that is not finite, negative or after the limits' `latest`
+    (edged.timecheck; from 0 on, since a recording may hold untimed records stamped
+    0.0, and without the one-day rule, since one recording may merge files days
+    apart), such as `Infinity` or a time centuries ahead, is `rejected.bad_time`:
+    the replay clock never jumps to it."""
     report = ReadReport()
+    accept = TimeWindow(limits, earliest=0.0, ahead=float("inf")).accept
     try:
         for channel, _schema, msg in iter_messages(stream, report):
             topic = channel.topic
@@ -37,10 +47,20 @@ def read_raw(stream: BinaryIO, health: ComponentHealth, name: str | Path) -> Ite
                 health.error(f"{name}: {topic}: a message is not JSON")
                 continue
             try:
-                yield raw_from_message(topic, payload)
+                raw = raw_from_message(topic, payload)
             except NotRaw as exc:
                 health.count("rejected.bad_raw")
                 health.error(f"{name}: {topic}: not a raw record ({exc})")
+                continue
+            except OverflowError:  # "t": 1e999999 written as an integer: no float holds it
+                health.count("rejected." + BAD_TIME)
+                health.error(f"{name}: {topic}: a time too large for a float")
+                continue
+            if not accept(raw.t):
+                health.count("rejected." + BAD_TIME)
+                health.error(f"{name}: {topic}: time {raw.t!r} cannot be true")
+                continue
+            yield raw
     except McapError as exc:
         health.count("rejected.not_mcap")
         health.error(f"{name}: {exc}")
