@@ -172,3 +172,15 @@ def test_whatever_the_lines_every_record_is_sound(lines):
         assert 0 <= can_id < (1 << 29 if ext else 1 << 11)
         assert len(r.data) in _FD
         assert r.source == "file" or (r.source.isascii() and r.source.isprintable() and "/" not in r.source)
+
+
+def test_the_fast_path_and_the_general_path_agree():
+    lines = [f"({T0 + i / 8:.6f}) can0 {ident}#{data}" for i, (ident, data) in enumerate(
+        [("09F11201", "0011223344556677"), ("123", ""), ("7FF", "01"), ("1FFFFFFF", "AABB"), ("800", "00"),
+         ("20000004", "0004000000000000"), ("123", "R"), ("00000123", "0102")]
+    )]
+    fast, h1 = _read(("\n".join(lines) + "\n").encode())
+    slow, h2 = _read(("\n".join(" " + line + " " for line in lines) + "\n").encode())  # padded: general path
+    assert fast == slow and h1.counters == h2.counters
+    assert [(r.meta["id"], r.meta["ext"]) for r in fast] == [(0x09F11201, True), (0x123, False), (0x7FF, False),
+                                                             (0x1FFFFFFF, True), (0x123, True)]
