@@ -7,8 +7,9 @@ decodes a recorded forecast the same way the live input did.
 
 Payload: a JSON object of the kind's values (DESIGN §2 names), optionally `t` (the
 sender's time, kept as `t_src`); `t_src` and `source` of a republished edged
-measurement are ignored. Angle fields are wrapped onto [0, 2π): ashore tools often
-publish directions in (−π, π].
+measurement are ignored. Angle fields in [−π, 2π] are mapped onto [0, 2π) (ashore
+tools often publish directions in (−π, π]); anything beyond is not a direction and is
+rejected, never wrapped (1e300 rad wrapped is a number, not a heading).
 """
 
 from __future__ import annotations
@@ -94,6 +95,8 @@ class ZenohDecoder:
         for name in _ANGLES[kind]:
             v = values.get(name)
             if _number(v):
+                if not -math.pi <= v <= 2.0 * math.pi:
+                    raise Rejected("invalid", f"{kind}.{name}={v!r} rad is not a direction in [-π, 2π]")
                 values[name] = wrap_angle(float(v))
         try:
             validate_measurement(kind, values)

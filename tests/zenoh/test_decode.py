@@ -36,6 +36,18 @@ def test_directions_in_minus_pi_to_pi_are_wrapped():
     assert m.values["set"] == pytest.approx(1.5 * math.pi)
 
 
+@pytest.mark.parametrize("v", [b"1e300", b"-4.0", b"6.3"])
+def test_directions_beyond_minus_pi_to_two_pi_are_rejected_not_wrapped(v):
+    h = _health()
+    assert ZenohDecoder(h).decode(_raw(b'{"set": ' + v + b', "drift": 0.5}')) == []
+    assert h.counters["rejected.invalid"] == 1
+
+
+def test_a_direction_of_two_pi_is_north():
+    (m,) = ZenohDecoder(_health()).decode(_raw(b'{"set": 6.283185307179586, "drift": 0.5}'))
+    assert m.values["set"] == 0.0
+
+
 def test_envelope_of_a_republished_measurement_is_ignored():
     payload = b'{"t": 5.0, "t_src": 4.0, "source": "ashore-model", "set": 0.1, "drift": 0.2}'
     (m,) = ZenohDecoder(_health()).decode(_raw(payload))
