@@ -16,6 +16,11 @@ The limits are configurable: a `TimeLimits` given to the `Replayer`
 (`time_limits=`) reaches every reader through its `ReplayOptions` (attribute
 `time_limits`, read with `limits_of`); without one the defaults below hold.
 
+A log that truly jumps ahead by more than `ahead` (a logger off for a week that
+appends to the same file) is followed after `CONFIRM` consecutive lines that agree on
+the new time (see `TimeWindow`): those lines before it are rejected, not the rest of
+the log.
+
 What the window cannot know: when the *first* time of a log is absurd but finite and
 before `latest` (say 2099), it becomes the newest good time and the log's true times,
 older, still pass. Such a log replays with a clock stuck at that time; the earliest
@@ -34,6 +39,8 @@ LATEST = 4102444800.0
 #: A log's time may run this far ahead of the newest good time seen in it.
 AHEAD = 86400.0
 INF = float("inf")
+#: Consecutive agreeing times beyond the window that make it move to them.
+CONFIRM = 10
 #: Reason of a rejection (counted as `rejected.bad_time`).
 BAD_TIME = "bad_time"
 
@@ -66,33 +73,62 @@ def limits_of(options: Any) -> TimeLimits:
 
 class TimeWindow:
     """Judges the times of one log in order; `accept(t)` is True for a plausible time
-    (and moves the window's top along), False for one to reject."""
+    (and moves the window's top along), False for one to reject.
 
-    __slots__ = ("earliest", "latest", "ahead", "newest", "_anchor", "_top")
+    A log may truly jump ahead by more than `ahead` (a logger off for a week that
+    appends to the same file): `confirm` consecutive rejected times, each before
+    `latest` and within `ahead` of the one before, are taken as the log's new time
+    (the last of them is accepted, the window moves to it). A jump thus costs
+    `confirm - 1` lines; a stray line, or a few not agreeing with each other, only
+    themselves. `confirm=0` never re-anchors."""
+
+    __slots__ = ("earliest", "latest", "ahead", "newest", "confirm", "_anchor", "_top", "_run", "_run_last")
 
     def __init__(
-        self, limits: TimeLimits = DEFAULT_LIMITS, *, earliest: float | None = None, ahead: float | None = None
+        self,
+        limits: TimeLimits = DEFAULT_LIMITS,
+        *,
+        earliest: float | None = None,
+        ahead: float | None = None,
+        confirm: int = CONFIRM,
     ) -> None:
         self.earliest = limits.earliest if earliest is None else earliest
         self.latest = limits.latest
         self.ahead = limits.ahead if ahead is None else ahead
+        self.confirm = confirm
         #: Only a time from `limits.earliest` on is a date that the one-day rule can
         #: count from; smaller ones (a reader's `earliest=0.0` for relative logs) are not.
         self._anchor = limits.earliest
         self.newest: float | None = None
         self._top = limits.latest
+        self._run = 0  # consecutive rejected times that agree with each other
+        self._run_last = 0.0
 
     def accept(self, t: float) -> bool:
         # NaN fails both comparisons; ±inf fails one: no separate finiteness test.
         if self.earliest <= t <= self._top:
+            self._run = 0
             newest = self.newest
             if newest is None or t > newest:
-                self.newest = t
-                if t >= self._anchor:
-                    top = t + self.ahead
-                    self._top = top if top < self.latest else self.latest
+                self._move(t)
             return True
+        if self._top < t <= self.latest and self.confirm > 0:
+            if self._run and abs(t - self._run_last) <= self.ahead:
+                self._run += 1
+            else:
+                self._run = 1
+            self._run_last = t
+            if self._run >= self.confirm:
+                self._run = 0
+                self._move(t)
+                return True
         return False
+
+    def _move(self, t: float) -> None:
+        self.newest = t
+        if t >= self._anchor:
+            top = t + self.ahead
+            self._top = top if top < self.latest else self.latest
 
     def __contains__(self, t: float) -> bool:
         """Whether `t` would be accepted now, without moving the window."""

@@ -205,13 +205,17 @@ def read(
             can_id = int(ident, 16)
             ext = len(ident) == 8
             t = float(stamp)
-            if can_id < (_CAN_ERR_FLAG if ext else 0x800) and accept(t):
-                bus = buses.get(iface) if bus_from_line else source
-                if bus is None:
-                    bus = buses[iface] = iface.decode("ascii")
-                yield RawRecord("can", bus, t, bytes.fromhex(hexdata.decode("ascii")), {"id": can_id, "ext": ext})
+            if can_id < (_CAN_ERR_FLAG if ext else 0x800):
+                if accept(t):  # once per line: a run of rejected times counts lines
+                    bus = buses.get(iface) if bus_from_line else source
+                    if bus is None:
+                        bus = buses[iface] = iface.decode("ascii")
+                    yield RawRecord("can", bus, t, bytes.fromhex(hexdata.decode("ascii")), {"id": can_id, "ext": ext})
+                else:
+                    health.count("rejected." + BAD_TIME)
+                    health.error(f"line {lineno}: time {stamp[:32]!r} cannot be true")
                 continue
-            # out of range, an error frame or a bad time: the general path says which
+            # out of range or an error frame: the general path says which
         if not _meaningful(line):
             continue
         try:

@@ -18,7 +18,7 @@ from edged.cli import main
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
-from edged.timecheck import EARLIEST, LATEST
+from edged.timecheck import CONFIRM, EARLIEST, LATEST
 from edged_can import candump
 from edged_can.plugin import CanInput
 
@@ -60,6 +60,14 @@ def test_relative_times_of_candump_t_z_are_kept():
 def test_a_time_more_than_a_day_after_the_newest_is_rejected():
     recs, h = _read(_with(f"({T0 + 2 * 86400:.6f}) can0 123#00"))
     assert _good_times(recs) == [T0, T0 + 1, T0 + 2, T0 + 3] and h.counters["rejected.bad_time"] == 1
+
+
+def test_a_log_that_truly_jumps_a_week_ahead_loses_only_the_confirming_lines():
+    week = [f"({T0 + 7 * 86400 + i:.6f}) can0 123#{i:02X}" for i in range(20)]
+    recs, h = _read(("\n".join(GOOD + week) + "\n").encode())
+    assert len(recs) == 4 + 20 - (CONFIRM - 1)
+    assert recs[4].t == T0 + 7 * 86400 + CONFIRM - 1
+    assert h.counters["rejected.bad_time"] == CONFIRM - 1
 
 
 @pytest.mark.parametrize("ident", ["-12", "+12", "1_2", "0x123", "-0", "+7FF"])
@@ -166,7 +174,8 @@ def test_whatever_the_lines_every_record_is_sound(lines):
         assert isinstance(r.t, float) and math.isfinite(r.t)
         assert 0.0 <= r.t <= LATEST
         if r.t >= EARLIEST:
-            assert newest is None or r.t <= newest + 86400.0
+            # more than a day ahead only after CONFIRM - 1 rejected lines agreeing on it
+            assert newest is None or r.t <= newest + 86400.0 or h.counters["rejected.bad_time"] >= CONFIRM - 1
             newest = r.t if newest is None else max(newest, r.t)
         can_id, ext = r.meta["id"], r.meta["ext"]
         assert 0 <= can_id < (1 << 29 if ext else 1 << 11)

@@ -45,6 +45,26 @@ def test_a_time_more_than_a_day_after_the_newest_good_one_is_refused():
     assert w.newest == T0 + 2 * AHEAD - 1.0
 
 
+def test_a_run_of_agreeing_times_beyond_the_window_moves_it():
+    w = TimeWindow(confirm=3)
+    assert w.accept(T0)
+    later = T0 + 7 * 86400
+    assert [w.accept(later + i) for i in range(5)] == [False, False, True, True, True]
+    assert w.newest == later + 4
+
+
+def test_stray_times_between_good_ones_never_move_the_window():
+    w = TimeWindow(confirm=3)
+    assert w.accept(T0)
+    for i in range(10):
+        assert not w.accept(T0 + 7 * 86400 + i)
+        assert w.accept(T0 + i)
+    # times beyond the window that disagree with each other do not add up either
+    assert not any(w.accept(T0 + (3 + 2 * i) * 86400) for i in range(10))
+    assert w.newest == T0 + 9
+    assert not TimeWindow(confirm=0).accept(math.nan)
+
+
 def test_limits_are_configurable_and_checked():
     w = TimeWindow(TimeLimits(earliest=0.0, latest=1e6, ahead=10.0))
     assert w.accept(5.0) and w.accept(15.0) and not w.accept(26.0) and not w.accept(2e6)

@@ -79,6 +79,15 @@ def test_a_time_that_cannot_be_true_costs_its_line_only(bad):
     assert c["lines"] == c["accepted"] + sum(v for k, v in c.items() if k.startswith("rejected."))
 
 
+def test_a_log_that_truly_jumps_a_week_ahead_loses_only_the_confirming_lines():
+    from edged.timecheck import CONFIRM
+
+    week = [_tag(f"c:{int(T0) + 7 * 86400 + i}") + _hdt(float(i)) for i in range(20)]
+    recs, h = _read(("\r\n".join([_good(0), _good(1)] + week) + "\r\n").encode())
+    assert [r.t for r in recs] == [T0, T0 + 1] + [T0 + 7 * 86400 + i for i in range(CONFIRM - 1, 20)]
+    assert h.counters["rejected.bad_time"] == CONFIRM - 1
+
+
 def test_an_untagged_line_after_a_rejected_time_keeps_the_log_s_time():
     gga = "GPGGA,120001,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"
     rmc = "GPRMC,120000,A,4807.038,N,01131.000,E,022.4,084.4,231124,003.1,W"
