@@ -75,7 +75,13 @@ def read_log(
     except ValueError:
         health.error(f"replay date {options.date!r} is not YYYY-MM-DD: ignored")
         day = None
-    stamper = ReplayStamper(day)
+    # A TAG/epoch time outside the log's plausible window costs its line only: it is
+    # judged before the stamper sees it, so it never sets the time of later lines. An
+    # RMC/ZDA date is judged by the stamper in a window of its own, a day wider (a date
+    # a day off is possible, a talker's at midnight; one decades off is not).
+    limits = limits_of(options)
+    accept = TimeWindow(limits).accept
+    stamper = ReplayStamper(day, accept=TimeWindow(limits, ahead=limits.ahead + 86400.0).accept)
     reporter = ProblemReporter(health)
     where = f" in {options.path}" if options.path else ""
 
@@ -92,9 +98,6 @@ def read_log(
         ]
 
     push = stamper.push
-    # A TAG/epoch time outside the log's plausible window costs its line only: it is
-    # judged before the stamper sees it, so it never sets the time of later lines.
-    accept = TimeWindow(limits_of(options)).accept
     while True:
         chunk = stream.read(CHUNK)
         placed: list[tuple[Framed, float]] = []
@@ -106,6 +109,8 @@ def read_log(
             ready = push(fr)
             if ready is None:
                 framer.reject(NO_TIME)
+            elif ready.__class__ is str:
+                framer.reject(ready)  # type: ignore[arg-type]
             elif ready:
                 placed += ready
                 if stamper.assumed_date:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import datetime as _dt
 from typing import Callable
 
-from .framing import Framed
+from .framing import BAD_TIME, Framed
 
 DAY = 86400.0
 HALF_DAY = 43200.0
@@ -20,6 +20,8 @@ def parse_tod(s: str) -> float | None:
     """`hhmmss[.sss]` -> seconds since midnight; None when empty or impossible."""
     if len(s) < 6 or not s[:6].isdigit():
         return None
+    if len(s) > 6 and (s[6] != "." or not (len(s) == 7 or s[7:].isdigit())):
+        return None  # float() would also take "123519e3", "123519.5_5", "123519 "
     try:
         v = float(s)
     except ValueError:
@@ -92,11 +94,10 @@ def _zda(f: list[str]) -> tuple[float | None, int | None]:
     tod = parse_tod(f[1])
     if tod is None or len(f) < 5:
         return tod, None
-    try:
-        year = _year(int(f[4]))
-        return tod, (epoch_day(year, int(f[3]), int(f[2])) if year is not None else None)
-    except ValueError:
+    if not (f[2].isdigit() and f[3].isdigit() and f[4].isdigit()):  # int() takes "+1", " 1", "1_0"
         return tod, None
+    year = _year(int(f[4]))
+    return tod, (epoch_day(year, int(f[3]), int(f[2])) if year is not None else None)
 
 
 _EXTRACTORS: dict[bytes, Callable[[list[str]], tuple[float | None, int | None]]] = {
@@ -134,25 +135,33 @@ class ReplayStamper:
     - Otherwise a line takes the latest time of day seen (GGA/RMC/ZDA/GLL), on the date
       of the latest RMC/ZDA, else the `--date` given; when the time of day steps back
       by more than 12 h the date rolls over (midnight).
-    - Before any time is known a line cannot be placed: `push` returns NO_TIME for it.
+    - Before any time is known a line cannot be placed: `push` returns None for it.
+    - An RMC/ZDA whose date and time are refused by `accept` (the log's plausible-time
+      window) is rejected (`push` returns BAD_TIME) and changes nothing.
     - Lines with a time of day but no date yet wait (up to `max_pending` lines) for the
       first date in the log, so a GGA before the first RMC is not lost. Lines of a log
       that states no date are placed on 1970-01-01 (`assumed_date` is True while so;
       `--date` avoids it).
     """
 
-    __slots__ = ("_day", "_tod", "_offset", "_pending", "_max_pending", "assumed_date")
+    __slots__ = ("_day", "_tod", "_offset", "_pending", "_max_pending", "_accept", "assumed_date")
 
-    def __init__(self, day: int | None = None, max_pending: int = 20_000) -> None:
+    def __init__(
+        self, day: int | None = None, max_pending: int = 20_000, accept: Callable[[float], bool] | None = None
+    ) -> None:
         self._day = day  # epoch day; None while unknown
         self._tod: float | None = None
         self._offset = 0  # midnights passed while the day is unknown
         self._pending: list[tuple[Framed, int, float]] = []
         self._max_pending = max_pending
+        #: judges the time a sentence's own date gives (edged.timecheck.TimeWindow.accept)
+        self._accept = accept
         self.assumed_date = False
 
-    def push(self, fr: Framed) -> list[tuple[Framed, float]] | None:
-        """Lines now placed in time, in order; None when `fr` has no time (skip it)."""
+    def push(self, fr: Framed) -> list[tuple[Framed, float]] | str | None:
+        """Lines now placed in time, in order; None when `fr` has no time (skip it);
+        BAD_TIME when the date `fr` states, with its time of day, is refused by the
+        `accept` given (`fr` is rejected, the stamper's date unchanged)."""
         if fr.t_log is not None:
             t = fr.t_log
             tod = t % DAY
@@ -162,6 +171,8 @@ class ReplayStamper:
             return ready
         tod, day = sentence_time(fr.sentence)
         if tod is not None:
+            if day is not None and self._accept is not None and not self._accept(day * DAY + tod):
+                return BAD_TIME  # a date that cannot be true must not date the lines after it
             self._observe(tod, day)
         elif self._tod is None:
             return None

@@ -98,6 +98,53 @@ def test_an_untagged_line_after_a_rejected_time_keeps_the_log_s_time():
     assert h.counters["rejected.bad_time"] == 1
 
 
+def _s(body: str) -> str:
+    return f"${body}*{_cs(body)}"
+
+
+def test_an_rmc_date_decades_ahead_costs_its_line_only():
+    rmc = "GPRMC,{},A,4807.038,N,01131.000,E,022.4,084.4,{},003.1,W"
+    lines = [
+        _s(rmc.format("120000", "231124")), _hdt(1.0),
+        _s(rmc.format("120001", "230179")),  # 2079
+        _hdt(2.0),
+        _s("GPGGA,120002,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"), _hdt(3.0),
+    ]
+    recs, h = _read(("\r\n".join(lines) + "\r\n").encode())
+    noon = 1732320000.0 + 43200.0
+    assert [r.t for r in recs] == [noon, noon, noon, noon + 2, noon + 2]
+    assert h.counters["rejected.bad_time"] == 1
+
+
+def test_a_zda_date_one_day_ahead_is_still_taken():
+    recs, h = _read(("\r\n".join([
+        _s("GPRMC,235959,A,4807.038,N,01131.000,E,022.4,084.4,231124,003.1,W"),
+        _s("GPZDA,000001.00,24,11,2024,00,00"),
+    ]) + "\r\n").encode())
+    assert [r.t for r in recs] == [1732406399.0, 1732406401.0] and "rejected.bad_time" not in h.counters
+
+
+@pytest.mark.parametrize("fields", ["+24,11,2079", " 24,11,2079", "24,1_1,2079", "24,11,2_079"])
+def test_zda_date_fields_python_would_take_are_not_a_date(fields):
+    from edged_nmea0183.timeofday import sentence_time
+
+    tod, day = sentence_time(_s(f"GPZDA,120000.00,{fields},00,00").encode())
+    assert tod == 43200.0 and day is None
+
+
+@pytest.mark.parametrize("tod", ["123519e3", "123519.5_5", "123519 ", "123519.", "123519.x"])
+def test_times_of_day_float_would_take_are_refused(tod):
+    from edged_nmea0183.timeofday import parse_tod
+
+    assert parse_tod(tod) is None or tod == "123519."
+
+
+def test_plain_times_of_day_still_parse():
+    from edged_nmea0183.timeofday import parse_tod
+
+    assert parse_tod("123519") == 45319.0 and parse_tod("123519.25") == 45319.25 and parse_tod("123519.") == 45319.0
+
+
 # ---- through the CLI -------------------------------------------------------------
 def _log(tmp_path: Path, bad: str) -> Path:
     path = tmp_path / "gyro.nmea"
