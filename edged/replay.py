@@ -43,7 +43,10 @@ from .timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits
 
 log = logging.getLogger("edged.replay")
 
-HEAD_BYTES = 4096
+#: What `detect` gives the readers' `sniff`: enough for a few hundred lines, so that
+#: a noisy start (line noise before a serial logger synchronised) does not hide the
+#: format of the rest.
+HEAD_BYTES = 32768
 #: Records between two looks at the outputs' queues and the progress bar.
 BATCH = 512
 #: Longest wall-time wait of the pacing (`speed` > 0); a longer gap is skipped.

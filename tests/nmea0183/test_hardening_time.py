@@ -196,6 +196,17 @@ def test_bad_checksums_at_the_head_do_not_make_the_log_unrecognised(tmp_path, ca
     assert f"replayed {10_000 - 21} records" in out.out
 
 
+def test_line_noise_filling_the_first_4_kib_does_not_hide_a_good_log(tmp_path, capsys):
+    noise = b"".join(b"%03d \x00\xfe\x7f garbage of a port at the wrong baud rate\r\n" % i for i in range(120))
+    assert len(noise) > 4096
+    path = tmp_path / "noisy.nmea"
+    path.write_bytes(noise + _noisy_log(0, 2000))
+    rc = main(["replay", str(path), "--no-zenoh", "--no-progress"])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    assert "replayed 2000 records" in out.out
+
+
 @pytest.mark.parametrize(
     "head",
     [
