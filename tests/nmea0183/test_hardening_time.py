@@ -14,11 +14,14 @@ from operator import xor
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from edged.cli import main
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
+from edged.timecheck import LATEST
 from edged_nmea0183.plugin import Nmea0183Input
 
 T0 = 1732350000.0
@@ -220,3 +223,22 @@ def test_line_noise_filling_the_first_4_kib_does_not_hide_a_good_log(tmp_path, c
 )
 def test_foreign_formats_are_still_refused(head):
     assert not Nmea0183Input.sniff(head[:4096])
+
+
+# ---- property: whatever the TAG times -------------------------------------------
+_c_values = st.one_of(
+    st.floats().map(repr),
+    st.integers(-(10**20), 10**20).map(str),
+    st.sampled_from(["20000000000", "1e300", "inf", "nan", "-1", "0", "1732350000.5", "1732350000500"]),
+)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.tuples(_c_values, st.booleans()), max_size=25))
+def test_whatever_the_tag_times_every_record_time_is_finite_and_representable(items):
+    lines = [(_tag(f"c:{c}") if tagged else f"{c} ") + _hdt(1.0) for c, tagged in items]
+    recs, h = _read(("\r\n".join(lines) + "\r\n").encode())
+    for r in recs:
+        assert 0.0 <= r.t <= LATEST
+    c = h.counters
+    assert c.get("lines", 0) == c.get("accepted", 0) + sum(v for k, v in c.items() if k.startswith("rejected."))
