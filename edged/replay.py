@@ -287,7 +287,7 @@ class Replayer:
         self.stats.bad_time += 1
         h = self._health(raw.source, raw.protocol)
         h.count("rejected." + BAD_TIME)
-        h.error(f"record at time {raw.t!r} refused: not a plausible time")
+        h.error("records whose time is not finite, negative or after the time limits' latest: refused")
 
     async def _yield(self, final: bool = False) -> None:
         """Let the workers and outputs work; wait while their queues are more than

@@ -194,6 +194,15 @@ def read(
     """
     untimed = False
     accept = TimeWindow(limits, earliest=0.0).accept
+    reported: set[str] = set()
+
+    def reject(reason: str, message: str) -> None:
+        """Count; log the first line of each reason (a million bad lines: one warning)."""
+        health.count("rejected." + reason)
+        if reason not in reported:
+            reported.add(reason)
+            health.error(f"{message} (further such lines counted as rejected.{reason})")
+
     fast = _FAST.fullmatch
     buses: dict[bytes, str] = {}
     for lineno, line in enumerate(stream, 1):
@@ -212,8 +221,7 @@ def read(
                         bus = buses[iface] = iface.decode("ascii")
                     yield RawRecord("can", bus, t, bytes.fromhex(hexdata.decode("ascii")), {"id": can_id, "ext": ext})
                 else:
-                    health.count("rejected." + BAD_TIME)
-                    health.error(f"line {lineno}: time {stamp[:32]!r} cannot be true")
+                    reject(BAD_TIME, f"line {lineno}: time {stamp[:32]!r} cannot be true")
                 continue
             # out of range or an error frame: the general path says which
         if not _meaningful(line):
@@ -224,8 +232,7 @@ def read(
             health.count(skip.counter)
             continue
         except _Reject as bad:
-            health.count("rejected." + bad.reason)
-            health.error(f"line {lineno}: {bad}")
+            reject(bad.reason, f"line {lineno}: {bad}")
             continue
         except (ValueError, UnicodeDecodeError) as exc:
             health.count("rejected.bad_line")
@@ -238,8 +245,7 @@ def read(
                 untimed = True
                 health.error(f"line {lineno}: candump log without timestamps, frames stamped 0.0")
         elif not accept(t):
-            health.count("rejected." + BAD_TIME)
-            health.error(f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
+            reject(BAD_TIME, f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
             continue
         bus = iface.decode("ascii") if bus_from_line and iface else source  # iface: checked ASCII
         yield RawRecord("can", bus, t, data, {"id": can_id, "ext": ext})

@@ -35,6 +35,7 @@ def read_raw(
     the replay clock never jumps to it."""
     report = ReadReport()
     accept = TimeWindow(limits, earliest=0.0, ahead=float("inf")).accept
+    bad_time_topics: set[str] = set()
     try:
         for channel, _schema, msg in iter_messages(stream, report):
             topic = channel.topic
@@ -58,7 +59,9 @@ def read_raw(
                 continue
             if not accept(raw.t):
                 health.count("rejected." + BAD_TIME)
-                health.error(f"{name}: {topic}: time {raw.t!r} cannot be true")
+                if topic not in bad_time_topics:  # logged once per channel
+                    bad_time_topics.add(topic)
+                    health.error(f"{name}: {topic}: time {raw.t!r} cannot be true (further ones counted)")
                 continue
             yield raw
     except McapError as exc:

@@ -193,3 +193,11 @@ def test_the_fast_path_and_the_general_path_agree():
     assert fast == slow and h1.counters == h2.counters
     assert [(r.meta["id"], r.meta["ext"]) for r in fast] == [(0x09F11201, True), (0x123, False), (0x7FF, False),
                                                              (0x1FFFFFFF, True), (0x123, True)]
+
+
+def test_many_bad_lines_are_counted_and_logged_once_per_reason():
+    bad = [f"({t}) can0 123#00" for t in ("inf", "nan", "-1") * 100] + [f"({T0:.6f}) can0 +12#00"] * 50
+    recs, h = _read(("\n".join(GOOD + bad) + "\n").encode())
+    assert len(recs) == 4
+    assert (h.counters["rejected.bad_time"], h.counters["rejected.bad_id"]) == (300, 50)
+    assert h.counters["errors"] == 2
