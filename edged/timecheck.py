@@ -10,7 +10,14 @@ A time is plausible when it is finite, not before `earliest` (default 1980-01-01
 GPS epoch's year: nothing that logs NMEA is older), not after `latest` (default
 2100-01-01, an absolute ceiling well inside MCAP's range) and not more than `ahead`
 (default one day) after the newest plausible time seen so far in the same log. The
-window is per log: each reader makes its own `TimeWindow`.
+window is per log: each reader makes its own `TimeWindow`, and some adapt it to
+their format:
+- candump logs are judged from 0 on rather than 1980 (`candump -t z` counts from
+  zero): negative times are still refused, and times before 1980 do not anchor the
+  one-day rule (which counts only from times after the limits' `earliest`);
+- an MCAP recording, from 0 on (it may hold untimed records stamped 0.0) and without
+  the one-day rule (edged's own merge of files that may be days apart);
+- the date of an NMEA RMC/ZDA sentence in a window of its own, a day wider.
 
 The limits are configurable: a `TimeLimits` given to the `Replayer`
 (`time_limits=`) reaches every reader through its `ReplayOptions` (attribute
