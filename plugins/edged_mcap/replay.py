@@ -15,10 +15,11 @@ from mcap.exceptions import McapError
 
 from edged.health import ComponentHealth
 from edged.records import RawRecord
+from edged.replay import UnknownFormat
 from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
 from .channels import RAW_PREFIX, NotRaw, raw_from_message
-from .reading import ReadReport, iter_messages
+from .reading import NoRecords, ReadReport, iter_messages
 
 __all__ = ["read_raw"]
 
@@ -43,7 +44,7 @@ def read_raw(
                 continue
             try:
                 payload = json.loads(msg.data)
-            except ValueError:  # UnicodeDecodeError is one too
+            except (ValueError, RecursionError):  # UnicodeDecodeError is a ValueError; JSON nested too deep
                 health.count("rejected.bad_json")
                 health.error(f"{name}: {topic}: a message is not JSON")
                 continue
@@ -64,6 +65,8 @@ def read_raw(
                     health.error(f"{name}: {topic}: time {raw.t!r} cannot be true (further ones counted)")
                 continue
             yield raw
+    except NoRecords as exc:  # the magic and nothing else: refused like an empty file
+        raise UnknownFormat(f"no records: {name} {exc.reason}") from None
     except McapError as exc:
         health.count("rejected.not_mcap")
         health.error(f"{name}: {exc}")
@@ -77,8 +80,12 @@ def _report(report: ReadReport, health: ComponentHealth, name: str | Path) -> No
         health.error(f"{name}: {report.bad_chunks} damaged chunk(s) skipped: {report.bad_chunk_errors[0]}")
     if report.orphans:
         health.count("rejected.no_channel", report.orphans)
+    if report.bad_records:
+        health.count("rejected.bad_record", report.bad_records)
+        health.error(f"{name}: {report.bad_records} damaged record(s) skipped: {report.bad_record_errors[0]}")
     if report.truncated or report.error or not report.finished:
-        health.count("truncated")
+        # A length field that cannot be true is damage; a file that just stops is not.
+        health.count("damaged" if (report.error or "").startswith("damaged") else "truncated")
         if report.error:
             why = report.error
         elif report.truncated:

@@ -281,12 +281,16 @@ def test_replay_of_a_damaged_file_counts_the_damage_in_the_source_health(good, k
     path.write_bytes(bad)
     rc, out, err = _run(["replay", str(path), "--no-zenoh", "--no-progress"], capsys)
     assert rc == 0
-    counters = {ln.split()[-2]: int(ln.split()[-1]) for ln in out.splitlines() if ln.strip().startswith(("rejected", "truncated", "bad"))}
+    counters = {
+        ln.split()[-2]: int(ln.split()[-1])
+        for ln in out.splitlines()
+        if ln.strip().startswith(("rejected", "truncated", "damaged", "bad"))
+    }
     if kind == "records_length_2^63":
         assert counters["rejected.bad_chunk"] == 1
         assert "damaged chunk(s) skipped" in err
-    else:
-        assert counters["truncated"] == 1
+    else:  # a length that cannot be true is damage, not a file that just stops
+        assert counters["damaged"] == 1 and "truncated" not in counters
         assert f"damaged: CHUNK record at byte {at}" in err
     n_raw = sum(1 for ch, _s, _m in iter_messages(io.BytesIO(bad), ReadReport()) if ch.topic.startswith("/raw/"))
     assert f"replayed {n_raw} records" in out and n_raw > 0
@@ -346,10 +350,17 @@ def _health() -> ComponentHealth:
 
 
 def test_replay_reader_names_a_file_holding_only_the_magic():
-    h = _health()
-    assert list(McapRecorder.open_replay(io.BytesIO(MAGIC), "f", h, ReplayOptions())) == []
-    assert h.counters["rejected.not_mcap"] == 1
-    assert "no records: the file holds only the MCAP magic" in h.last_error
+    from edged.replay import UnknownFormat
+
+    with pytest.raises(UnknownFormat, match="no records: f holds only the MCAP magic"):
+        list(McapRecorder.open_replay(io.BytesIO(MAGIC), "f", _health(), ReplayOptions()))
+
+
+def test_replay_of_a_file_holding_only_the_magic_exits_2_like_an_empty_one(tmp_path, capsys):
+    path = tmp_path / "magic.mcap"
+    path.write_bytes(MAGIC)
+    assert cli(["replay", str(path), "--no-zenoh", "--no-progress"]) == 2
+    assert "holds only the MCAP magic" in capsys.readouterr().err
 
 
 # -- foreign payloads: what plot and export flatten --------------------------------------
@@ -490,8 +501,14 @@ def test_fuzz_the_replay_reading_path(bases, monkeypatch, data):
 
     # What replay gets: raw records with a finite time and bytes; never an exception;
     # what could not be read is counted in the source's health.
+    from edged.replay import UnknownFormat
+
     h = _health()
-    raws = list(McapRecorder.open_replay(_buffered(blob), "f", h, ReplayOptions()))
+    try:
+        raws = list(McapRecorder.open_replay(_buffered(blob), "f", h, ReplayOptions()))
+    except UnknownFormat:  # no readable record at all: refused like an empty file
+        assert refused and isinstance(refused[0], NoRecords)
+        return
     for r in raws:
         assert isinstance(r, RawRecord)
         assert isinstance(r.t, float) and math.isfinite(r.t)
@@ -501,4 +518,4 @@ def test_fuzz_the_replay_reading_path(bases, monkeypatch, data):
     else:
         assert h.counters.get("rejected.bad_chunk", 0) == report.bad_chunks
         if report.truncated or report.error or not report.finished:
-            assert h.counters["truncated"] == 1
+            assert h.counters.get("truncated", 0) + h.counters.get("damaged", 0) == 1
