@@ -193,6 +193,8 @@ class ReplayOptions:
     date: str | None = None  # YYYY-MM-DD for NMEA logs without a date
     config: Any = None  # the input's configuration section when one is given
     path: Path | None = None  # the file being read, for messages
+    #: The plausible-time window (`edged.timecheck.TimeLimits`); None: its defaults.
+    time_limits: Any = None
 
 
 class InputPlugin(Plugin):

@@ -179,8 +179,7 @@ class Replayer:
         self.total_bytes += path.stat().st_size
         health = self._health(source, name)
         opts = ReplayOptions(date=self.date, config=in_cfg, path=path)
-        # Read with edged.timecheck.limits_of(options) (not a field of ReplayOptions yet).
-        setattr(opts, "time_limits", self.time_limits)
+        opts.time_limits = self.time_limits
         return cls.open_replay(io.BufferedReader(f, 1 << 16), source, health, opts)
 
     def _decoder(self, protocol: str, source: str) -> Decoder | None:

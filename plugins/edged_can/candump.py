@@ -16,7 +16,7 @@ can be decoded but not placed in time, and that must be visible.
 from __future__ import annotations
 
 import re
-from typing import BinaryIO, Iterator
+from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
 from edged.records import RawRecord
@@ -248,4 +248,7 @@ def read(
             reject(BAD_TIME, f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
             continue
         bus = iface.decode("ascii") if bus_from_line and iface else source  # iface: checked ASCII
-        yield RawRecord("can", bus, t, data, {"id": can_id, "ext": ext})
+        meta: dict[str, Any] = {"id": can_id, "ext": ext}
+        if b"##" in line:  # a CAN FD frame (`ID##<flags><data>`): the decoder allows 64 bytes
+            meta["fd"] = True
+        yield RawRecord("can", bus, t, data, meta)

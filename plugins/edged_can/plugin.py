@@ -9,6 +9,7 @@ from edged.health import ComponentHealth
 from edged.link import Link, LinkLost
 from edged.plugin import InputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
+from edged.timecheck import limits_of
 
 from . import candump
 from .config import CanConfig, default_config
@@ -87,15 +88,10 @@ class CanInput(InputPlugin):
     def _on_frame(self, msg: can.Message) -> None:
         self._session_frames += 1
         ctx = self.ctx
-        ctx.ingest(
-            RawRecord(
-                "can",
-                ctx.name,
-                ctx.clock.now(),
-                bytes(msg.data),
-                {"id": msg.arbitration_id, "ext": bool(msg.is_extended_id)},
-            )
-        )
+        meta: dict[str, Any] = {"id": msg.arbitration_id, "ext": bool(msg.is_extended_id)}
+        if msg.is_fd:  # the decoder allows an FD frame up to 64 bytes, a classic one 8
+            meta["fd"] = True
+        ctx.ingest(RawRecord("can", ctx.name, ctx.clock.now(), bytes(msg.data), meta))
 
     def status(self) -> dict[str, Any]:
         return {"interface": self.config.interface, "channel": self.config.channel, "sessions": self.sessions}
@@ -116,4 +112,6 @@ class CanInput(InputPlugin):
     ) -> Iterator[RawRecord]:
         # Without a configuration section for this file, the bus is the interface the
         # log names, so files of one bus share one decoder (and their fast-packets).
-        return candump.read(stream, source, health, bus_from_line=options.config is None)
+        return candump.read(
+            stream, source, health, bus_from_line=options.config is None, limits=limits_of(options)
+        )

@@ -49,6 +49,7 @@ import edged
 from edged.health import ComponentHealth
 from edged.plugin import OutputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
+from edged.timecheck import limits_of
 
 from . import files
 from .channels import dumps, encode, to_ns
@@ -252,7 +253,7 @@ class McapRecorder(OutputPlugin):
         cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
     ) -> Iterator[RawRecord]:
         """The recorded raw channels as RawRecords, exactly as they were recorded."""
-        return read_raw(stream, health, options.path or source)
+        return read_raw(stream, health, options.path or source, limits_of(options))
 
     # -- files ---------------------------------------------------------------------------
     def _target(self) -> Path:

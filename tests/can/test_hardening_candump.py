@@ -201,3 +201,14 @@ def test_many_bad_lines_are_counted_and_logged_once_per_reason():
     assert len(recs) == 4
     assert (h.counters["rejected.bad_time"], h.counters["rejected.bad_id"]) == (300, 50)
     assert h.counters["errors"] == 2
+
+
+def test_an_fd_frame_is_marked_fd_for_the_decoder_and_a_classic_one_is_not():
+    recs, h = _read(
+        b"(1732350000.000000) can0 123##1" + b"11" * 12 + b"\n"
+        b"(1732350000.100000) can0 124#1122\n"
+    )
+    assert [r.meta.get("fd", False) for r in recs] == [True, False]
+    dec = CanInput.make_decoder("can0", None, h)
+    dec.decode(recs[0])
+    assert "rejected.bad_length" not in h.counters  # 12 bytes is a valid FD length
