@@ -288,6 +288,10 @@ def print_summary(
         if stats.t_first is not None and stats.t_last is not None:
             span = f", {stats.t_last - stats.t_first:.1f} s of data"
         print(f"replayed {stats.records} records{span}", file=out)
+    if stats.bad_time:
+        print(f"records refused by the replay for a time that cannot be true: {stats.bad_time}", file=out)
+    if stats.gaps_skipped:
+        print(f"gaps in the data skipped instead of waited for (--speed pacing): {stats.gaps_skipped}", file=out)
     rows: list[tuple[str, str, int]] = []
     for h in rt.health.components.values():
         if h.role != "input":

@@ -165,3 +165,19 @@ async def test_a_gap_shorter_than_the_bound_is_waited_for(registry, tmp_path):
     assert 4.0 < max(sleep.delays) <= 5.0
     rep, sleep = await _paced(registry, log, 100.0, max_wait=1.0)  # the bound is a parameter
     assert rep.stats.gaps_skipped == 1 and all(d <= 1.0 for d in sleep.delays)
+
+
+def test_the_summary_says_what_the_replay_refused_and_skipped(registry):
+    import io as _io
+
+    from edged.clock import ReplayClock
+    from edged.commands import print_summary
+    from edged.config import parse_config
+    from edged.replay import ReplayStats
+    from edged.runtime import Runtime
+
+    rt = Runtime(parse_config({}, registry), registry, ReplayClock(), replay=True)
+    out = _io.StringIO()
+    print_summary(rt, ReplayStats(records=5, t_first=1.0, t_last=2.0, bad_time=2, gaps_skipped=1), out)
+    text = out.getvalue()
+    assert "time that cannot be true: 2" in text and "skipped instead of waited for (--speed pacing): 1" in text
