@@ -22,6 +22,9 @@ REPO = Path(__file__).resolve().parents[2]
 TESTS = (
     "tests/nmea0183/test_hardening_values.py::test_fuzz_every_sentence_type_emits_only_true_values",
     "tests/can/test_hardening_values.py::test_fuzz_every_handled_pgn_emits_only_true_values",
+    "tests/nmea0183/test_hardening_time.py::test_whatever_the_tag_times_every_record_time_is_finite_and_representable",
+    "tests/can/test_hardening_candump.py::test_whatever_the_lines_every_record_is_sound",
+    "tests/mcap/test_hardening_files.py::test_fuzz_the_replay_reading_path",
 )
 
 # "- during generate phase (12.34 seconds):" ... "- 20000 passing, 0 failing, and 15 invalid

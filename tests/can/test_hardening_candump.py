@@ -4,6 +4,8 @@ reader, in `edged replay --record` and at `--speed 100`."""
 
 from __future__ import annotations
 
+import os
+
 import io
 import math
 import subprocess
@@ -164,7 +166,7 @@ _lines = st.one_of(
 _FD = {0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64}
 
 
-@settings(max_examples=400, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=int(os.environ.get("EDGED_FUZZ_EXAMPLES", "400")), deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(_lines, max_size=12))
 def test_whatever_the_lines_every_record_is_sound(lines):
     h = _health()

@@ -9,6 +9,8 @@ everything before the damage.
 
 from __future__ import annotations
 
+import os
+
 import importlib.util
 import io
 import math
@@ -477,7 +479,7 @@ def _damaged(draw: st.DrawFn, names: tuple[str, ...]) -> tuple[str, bytes]:
 _CAP = 256 * 1024
 
 
-@settings(derandomize=True, max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(derandomize=True, max_examples=int(os.environ.get("EDGED_FUZZ_EXAMPLES", "200")), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(st.data())
 def test_fuzz_the_replay_reading_path(bases, monkeypatch, data):
     monkeypatch.setattr(reading, "MAX_RECORD", _CAP)  # a small cap: a bound a test can see

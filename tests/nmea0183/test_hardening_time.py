@@ -6,6 +6,8 @@ only (`rejected.bad_time`), in the reader, in `edged replay --record` and at
 
 from __future__ import annotations
 
+import os
+
 import io
 import subprocess
 import sys
@@ -233,7 +235,7 @@ _c_values = st.one_of(
 )
 
 
-@settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=int(os.environ.get("EDGED_FUZZ_EXAMPLES", "300")), deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.tuples(_c_values, st.booleans()), max_size=25))
 def test_whatever_the_tag_times_every_record_time_is_finite_and_representable(items):
     lines = [(_tag(f"c:{c}") if tagged else f"{c} ") + _hdt(1.0) for c, tagged in items]
