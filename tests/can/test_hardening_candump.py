@@ -5,7 +5,6 @@ reader, in `edged replay --record` and at `--speed 100`."""
 from __future__ import annotations
 
 import os
-
 import io
 import math
 import subprocess

@@ -10,7 +10,6 @@ everything before the damage.
 from __future__ import annotations
 
 import os
-
 import importlib.util
 import io
 import math

@@ -7,7 +7,6 @@ only (`rejected.bad_time`), in the reader, in `edged replay --record` and at
 from __future__ import annotations
 
 import os
-
 import io
 import subprocess
 import sys
