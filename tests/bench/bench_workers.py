@@ -54,7 +54,7 @@ from edged.plugin import EstimatorConfig, EstimatorPlugin
 from edged.records import Estimate, Measurement, validate_measurement
 from edged.registry import Registry
 from edged.runtime import Runtime
-from edged.workers import MAX_CALLS, ProcessRunner
+from edged.workers import MAX_CALLS, MAX_CALLS_PROCESS, ProcessRunner
 
 REFERENCE_RATE = 741.0  # measurements per second of data (DESIGN §9: "about 740")
 STALL_TARGET = 0.005  # s
@@ -430,7 +430,7 @@ def _stall(label: str, r: dict[str, Any]) -> list[str]:
             f"    worker: {r['steps']} stepped, backlog {r['backlog']} at the end, overflow {r['overflow']},"
             f" dropped {r['dropped']}, late {r['late']}, restarts {r['restarts']};"
             f" batches {len(b)}, calls per batch p50 {_pct(sorted(b), 0.5):.0f} max {max(b, default=0)}"
-            f" (MAX_CALLS {MAX_CALLS})"
+            f" (at most {MAX_CALLS} in the loop, {MAX_CALLS_PROCESS} to a process)"
         )
         parts = []
         for what, where in (("core", "loop"), ("prepare", "loop"), ("apply", "loop"), ("send", "helper"), ("recv", "helper")):
