@@ -4,13 +4,26 @@ The daemon must run whether or not anyone listens: the session is opened in the
 background (`session.open_session`, retried with backoff) and until it is open every
 record still updates the latest-value store, so the first query after the link comes
 up is answered with current values. Raw records are never published.
+
+Where the samples go is part of health (`info["zenoh"]`, `info["routers"]`,
+`info["peers"]`): a client whose router is gone (an outage of the shore link) has an
+open session that sends nothing, so in client mode the records written meanwhile are
+counted `unsent.no_route` instead of `published`, `info["zenoh"]` says
+`disconnected` and the output's state is `disconnected` (`ok: false`): the daemon goes
+on, but this output's link is down, and a dashboard must see it. The router count is
+looked at in every health `status()` and, in `write`, at most every
+`ROUTE_CHECK_INTERVAL` seconds of the clock's monotonic time. A peer publishes to
+whoever is connected at the time: nobody listening is normal there, not a loss.
+
+`ready()` waits (bounded) for the link, so that a replay's first samples are not
+published before anyone can receive them (`replay_wait`).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-from typing import Any, Callable, ClassVar
+from typing import Any, Callable, ClassVar, Literal
 
 import zenoh
 from pydantic import Field, field_validator
@@ -39,6 +52,16 @@ class ZenohOutputConfig(OutputConfig, ZenohSettings):
     meas_max_hz: dict[str, float] = Field(default_factory=dict)
     #: Answer `get` on `<prefix>/**` with the latest value of each key.
     queryable: bool = True
+    #: `edged replay`: seconds to wait at the start for the session to be linked (a
+    #: router in client mode, a peer when `connect` names one) before the first record
+    #: is published (`ZenohOutput.ready`); 0 does not wait.
+    replay_wait: float = Field(5.0, ge=0, le=3600)
+    #: What zenoh does with a sample when a link's send queue is full: `drop` it (the
+    #: event loop never waits for a slow link), `block` until there is room (every
+    #: sample is delivered; `put` may wait), `auto`: `block` when the runtime says it
+    #: is a replay (`ctx.options["replay"]`), else `drop`. A replay at full speed
+    #: publishes faster than any link carries: with `drop` its tail is lost.
+    congestion_control: Literal["auto", "drop", "block"] = "auto"
 
     @field_validator("key_prefix")
     @classmethod
@@ -57,6 +80,20 @@ class ZenohOutputConfig(OutputConfig, ZenohSettings):
 
 
 _NO_KEY = ""
+
+#: Seconds (of `ctx.clock.monotonic()`) a router count is trusted by `write`.
+ROUTE_CHECK_INTERVAL = 0.5
+#: Seconds between looks at the link while `ready()` waits.
+READY_POLL = 0.02
+#: States set by the runtime and the supervisor, which the link state never overrides.
+_RUNTIME_STATES = frozenset({"backoff", "failed", "finished", "stopped", "closed"})
+
+
+def _connect_endpoints(cfg: dict[str, Any]) -> list[str]:
+    eps = (cfg.get("connect") or {}).get("endpoints") or []
+    if isinstance(eps, dict):
+        eps = eps.get(cfg.get("mode", "peer")) or []
+    return list(eps)
 
 
 class ZenohOutput(OutputPlugin):
@@ -84,10 +121,19 @@ class ZenohOutput(OutputPlugin):
             HealthRecord: self._route_health,
         }
         self._session: zenoh.Session | None = None
+        cc = config.congestion_control
+        if cc == "auto":
+            cc = "block" if ctx.options.get("replay") else "drop"
+        self._congestion = zenoh.CongestionControl.BLOCK if cc == "block" else zenoh.CongestionControl.DROP
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._queryable: zenoh.Queryable | None = None
         self._token: zenoh.LivelinessToken | None = None
         self._connector: asyncio.Task[None] | None = None
+        self._mode = "peer"
+        self._connects: list[str] = []
+        # Client mode: is a router connected (None: not looked at yet), and when looked.
+        self._routed: bool | None = None
+        self._route_t = float("-inf")
         # Touched from zenoh's query thread: plain ints reported through status().
         self._queries = 0
         self._query_errors = 0
@@ -100,7 +146,12 @@ class ZenohOutput(OutputPlugin):
     async def open(self) -> None:
         """Check the configuration now; connect in the background, never failing."""
         cfg = plugin_session_config(self.config, self.ctx)
+        self._mode = str(cfg.get("mode") or "peer")
+        self._connects = _connect_endpoints(cfg)
         self.ctx.health.info["key_prefix"] = self.keyspace.prefix
+        self.ctx.health.info["congestion_control"] = (
+            "block" if self._congestion == zenoh.CongestionControl.BLOCK else "drop"
+        )
         self.ctx.health.info["zenoh"] = "connecting"
         self._connector = asyncio.create_task(self._connect(cfg), name=f"{self.ctx.name}.connect")
 
@@ -115,6 +166,90 @@ class ZenohOutput(OutputPlugin):
             raise
         self._session = session
         self.connected.set()
+        self._routed = None
+        self._check_route(session)
+
+    # -- the link --------------------------------------------------------------------
+    @property
+    def client(self) -> bool:
+        return self._mode == "client"
+
+    def _check_route(self, session: zenoh.Session) -> bool:
+        """Client mode: look whether a router is connected now; update the link state
+        in health when it changed. Other modes: always True."""
+        if not self.client:
+            return True
+        try:
+            routed = bool(session.info.routers_zid())
+        except zenoh.ZError:
+            routed = False
+        return self._note_route(routed)
+
+    def _note_route(self, routed: bool) -> bool:
+        self._route_t = self.ctx.clock.monotonic()
+        if routed != self._routed:
+            self._routed = routed
+            self._show_link(routed)
+        return routed
+
+    def _show_link(self, up: bool) -> None:
+        h = self.ctx.health
+        h.info["zenoh"] = "connected" if up else "disconnected"
+        if up:
+            if h.state == "disconnected":
+                h.set_state("running", "zenoh router connected")
+        elif h.state not in _RUNTIME_STATES:
+            h.set_state("disconnected", "no zenoh router connected")
+            h.error("zenoh: no router connected: samples are not sent (unsent.no_route)")
+
+    def _route_ok(self, session: zenoh.Session) -> bool:
+        """`_check_route` at most every ROUTE_CHECK_INTERVAL s (write's hot path)."""
+        if not self.client:
+            return True
+        if self._routed is None or self.ctx.clock.monotonic() - self._route_t >= ROUTE_CHECK_INTERVAL:
+            return self._check_route(session)
+        return self._routed
+
+    def _linked(self, session: zenoh.Session) -> bool:
+        """Someone can receive what is published: a router (client), a peer or router
+        when `connect` names endpoints (peer); a listening peer or a router is linked
+        once open (who connects to it is not known in advance)."""
+        if self.client:
+            return self._check_route(session)
+        if self._mode == "peer" and self._connects:
+            try:
+                return bool(session.info.peers_zid()) or bool(session.info.routers_zid())
+            except zenoh.ZError:
+                return False
+        return True
+
+    async def ready(self, timeout: float | None = None) -> bool:
+        """Wait until the session is open and linked (see `_linked`), at most `timeout`
+        seconds of wall time (default: `replay_wait`); True when linked.
+
+        For `edged replay`: awaited before the first record is fed, so that a
+        subscriber gets the whole voyage. May be called before `open()` has run (the
+        wait includes the session's opening); never raises on a missing link.
+        """
+        if timeout is None:
+            timeout = self.config.replay_wait
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + max(0.0, timeout)
+        while True:
+            session = self._session
+            if session is not None and not session.is_closed() and self._linked(session):
+                return True
+            left = deadline - loop.time()
+            if left <= 0:
+                return False
+            if session is None:
+                try:
+                    async with asyncio.timeout(left):
+                        await self.connected.wait()
+                except TimeoutError:
+                    return False
+            else:
+                await asyncio.sleep(min(READY_POLL, left))
 
     async def close(self) -> None:
         task, self._connector = self._connector, None
@@ -134,7 +269,23 @@ class ZenohOutput(OutputPlugin):
         self.ctx.health.info["zenoh"] = "closed"
 
     def status(self) -> dict[str, Any]:
-        return {"queries": self._queries, "query_errors": self._query_errors, "keys": len(self.latest)}
+        out: dict[str, Any] = {"queries": self._queries, "query_errors": self._query_errors, "keys": len(self.latest)}
+        session = self._session
+        if session is None:
+            if self.client:
+                h = self.ctx.health
+                if h.state not in _RUNTIME_STATES and h.state != "disconnected":
+                    h.set_state("disconnected", "zenoh session not open")
+            return out
+        try:
+            routers = len(session.info.routers_zid())
+            out["peers"] = len(session.info.peers_zid())
+        except zenoh.ZError:
+            routers = 0
+        out["routers"] = routers
+        if self.client:
+            self._note_route(routers > 0)  # the count shown is the one judged
+        return out
 
     # -- records -----------------------------------------------------------------
     def _key(self, make: Callable[..., str], *chunks: str) -> str:
@@ -166,8 +317,9 @@ class ZenohOutput(OutputPlugin):
     def write(self, batch: list[Any]) -> None:
         routes = self._routes
         stored: list[tuple[str, Any]] = []
-        sent = limited = unsent = 0
+        sent = limited = unsent = no_route = 0
         session = self._session
+        routed = session is not None and self._route_ok(session)
         for rec in batch:
             route = routes.get(type(rec))
             if route is None:  # raw records and anything unknown: not published
@@ -180,6 +332,8 @@ class ZenohOutput(OutputPlugin):
                 limited += 1
             elif session is None:
                 unsent += 1
+            elif not routed:
+                no_route += 1
             elif self._put(session, key, rec):
                 sent += 1
         self.latest.update(stored)
@@ -190,6 +344,8 @@ class ZenohOutput(OutputPlugin):
             health.count("rate_limited", limited)
         if unsent:
             health.count("unsent.no_session", unsent)
+        if no_route:
+            health.count("unsent.no_route", no_route)
 
     def _put(self, session: zenoh.Session, key: str, rec: Any) -> bool:
         health = self.ctx.health
@@ -204,7 +360,9 @@ class ZenohOutput(OutputPlugin):
         try:
             pub = self._publishers.get(key)
             if pub is None:
-                pub = self._publishers[key] = session.declare_publisher(key, encoding=_JSON)
+                pub = self._publishers[key] = session.declare_publisher(
+                    key, encoding=_JSON, congestion_control=self._congestion
+                )
             pub.put(data)
         except zenoh.ZError as exc:
             health.count("put_errors")
