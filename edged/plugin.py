@@ -282,6 +282,15 @@ class OutputPlugin(Plugin):
         """Take a batch of records (in publish order). Must not block for long."""
         raise NotImplementedError
 
+    async def ready(self, timeout: float | None = None) -> bool:
+        """True once the output can deliver (a publisher linked to its peers).
+
+        A replay awaits every output's `ready()` before its first record, so that a
+        subscriber gets the whole voyage; `timeout` None is the output's own bound.
+        Returning False (not linked in time) lets the replay go on, with a warning.
+        """
+        return True
+
     def flush(self) -> None:
         """Called about once a second and before close."""
 

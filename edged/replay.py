@@ -207,6 +207,9 @@ class Replayer:
 
     async def run(self) -> ReplayStats:
         """Replay every record; returns the counts for the summary."""
+        # A publisher that is not linked yet would lose the voyage's start (counted,
+        # but lost): every output gets its bounded chance to link first.
+        await self.rt.outputs_ready()
         iters = [self._open(p) for p in self.paths]
         merged = heapq.merge(*iters, key=_t) if len(iters) > 1 else iters[0]
         rt = self.rt

@@ -117,6 +117,9 @@ class Runtime:
         self.replay = replay
         self.options = dict(options or {})
         self.options.setdefault("config_text", config.text)
+        #: Plugins may behave differently in replay (a publisher blocks on a full link
+        #: instead of dropping, since nobody waits on a replay in real time).
+        self.options.setdefault("replay", replay)
         self.restart = restart
         self.sleep = sleep
         self.health = HealthRegistry(clock)
@@ -331,6 +334,15 @@ class Runtime:
                 out.health.error(f"close: {type(exc).__name__}: {exc}")
             out.health.set_state("stopped")
         self._tasks.clear()
+
+    async def outputs_ready(self) -> None:
+        """Wait (each within its own bound) until every output can deliver."""
+        results = await asyncio.gather(*(o.plugin.ready() for o in self.outputs), return_exceptions=True)
+        for out, ok in zip(self.outputs, results):
+            if ok is not True:
+                why = f"{type(ok).__name__}: {ok}" if isinstance(ok, BaseException) else "not linked in time"
+                log.warning("event=output-not-ready output=%s reason=%r action='replaying anyway'", out.name, why)
+                out.health.count("not_ready_at_start")
 
     async def finish_workers(self) -> None:
         """Let every worker step what is queued for it and release its reorder window,

@@ -50,6 +50,9 @@ class Nmea0183Config(InputConfig, ReconnectSettings):
     variation: float | None = Field(None, ge=-180.0, le=180.0)
     #: Emit the ground part of VBW as `velocity_ground` (off: GNSS is the better source).
     vbw_ground: bool = False
+    #: UDP: receive buffer in bytes (SO_RCVBUF); None keeps the system default. Linux
+    #: doubles it and caps it at 2 × net.core.rmem_max (a warning says so).
+    rcvbuf: int | None = Field(None, ge=4096, le=2**31 - 1)
 
     @field_validator("device", "host", "port", "path")
     @classmethod

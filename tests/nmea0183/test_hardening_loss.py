@@ -277,7 +277,15 @@ def test_serial_user_flush_still_flushes(tmp_path):
         os.write(master, HDT + b"\r\n")
         port = open_keeping_input(os.ttyname(slave), 38400)
         try:
-            assert port.in_waiting == len(HDT) + 2  # kept by the open
+            import select
+
+            # the pty hands the bytes over in its own time: wait for them (bounded)
+            want = len(HDT) + 2
+            for _ in range(500):
+                if port.in_waiting >= want:
+                    break
+                select.select([port.fileno()], [], [], 0.01)
+            assert port.in_waiting == want  # kept by the open
             port.reset_input_buffer()
             assert port.in_waiting == 0
         finally:
@@ -285,3 +293,15 @@ def test_serial_user_flush_still_flushes(tmp_path):
     finally:
         os.close(slave)
         os.close(master)
+
+
+def test_rcvbuf_is_validated_by_the_configuration():
+    import pytest as _pytest
+    from pydantic import ValidationError
+
+    from edged_nmea0183.config import Nmea0183Config
+
+    assert Nmea0183Config.model_validate({"type": "nmea0183", "transport": "udp", "port": 10110, "rcvbuf": 1 << 20}).rcvbuf == 1 << 20
+    for bad in (100, -1, 2**40, "big"):
+        with _pytest.raises(ValidationError):
+            Nmea0183Config.model_validate({"type": "nmea0183", "transport": "udp", "port": 10110, "rcvbuf": bad})
