@@ -82,11 +82,18 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_check_config(args: argparse.Namespace, registry: Registry) -> int:
+    """What `run` would refuse, refused here alike: the schemas, then what only the
+    built plugins can judge (their `check()`, estimators consuming what no instance
+    makes or each other in a cycle). Nothing is started."""
     try:
         cfg = load_config(args.config, registry)
+        Runtime(cfg, registry, ReplayClock())
     except ConfigError as exc:
         print(exc, file=sys.stderr)
         return EXIT_USAGE
+    except PluginBuildError as exc:
+        print(f"{args.config}: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     parts = [f"{len(getattr(cfg, r))} {r} ({', '.join(getattr(cfg, r)) or '-'})" for r in ("inputs", "estimators", "outputs")]
     print(f"{args.config}: OK: vessel {cfg.edged.vessel_id}; " + "; ".join(parts))
     return EXIT_OK

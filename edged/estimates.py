@@ -41,6 +41,7 @@ NUMBER, STRING, BOOL, OBJECT, ARRAY = "number", "string", "boolean", "object", "
 class EstField:
     """One field of an estimate kind.
 
+    `angle`: an angle in rad, whose errors `edged score` wraps to (−π, π].
     `std`: dotted path, in the same payload, of this field's 1-σ (e.g. `stw_std`,
     `std.u`). `truth`: the truth column it is scored against (`edged score`; the
     simulator's `truth.csv` names); None when no truth exists. `baseline`: the
@@ -169,7 +170,7 @@ ESTIMATE_KINDS: dict[str, EstimateKind] = {
                 _f("a_v", "m/s^2", "sway acceleration", std="std.a_v", truth="a_v"),
                 _f("sog", "m/s", "speed over ground", truth="sog", baseline=("velocity_ground", "sog")),
                 _f("cog", "rad", "course over ground", angle=True, truth="cog", baseline=("velocity_ground", "cog")),
-                _f("drift_angle", "rad", "atan2(v, u): drift over ground", truth="drift_angle"),
+                _f("drift_angle", "rad", "atan2(v, u): drift over ground", angle=True, truth="drift_angle"),
                 _n("drift_angle_water", "rad", "drift through the water (null without a known current)"),
                 _n("nis", "1", "normalised innovation squared of the latest update"),
                 _f("model", "name", "ctra or cmm", type=STRING),

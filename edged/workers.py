@@ -219,6 +219,16 @@ class ProcessRunner:
     async def stop(self) -> None:
         await asyncio.get_running_loop().run_in_executor(self._pool, self._stop_child)
 
+    def kill_now(self) -> None:
+        """From the event loop, when a batch did not come back in time at shutdown:
+        the child goes at once (the helper thread's wait then ends)."""
+        p = self.process
+        if p is not None and p.pid is not None:
+            try:
+                os.kill(p.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
     def close(self) -> None:
         """Last words at shutdown: the child and the helper thread go."""
         self._stop_child()
@@ -282,13 +292,16 @@ class WorkerHost:
         self._done = 0  # watermark: everything caused by numbers <= this is published
         self._busy = False
         self._closing = False
+        self._finished = False  # finish() has run: nothing more will be published
         # Data time, reorder window, ticks.
         self._reorder: list[tuple[float, int, Any]] = []
         self._newest = -math.inf  # newest input time admitted
         self._stepped = -math.inf  # newest input time stepped (older inputs are late)
-        self._period = 1.0 / self.publish_rate if self.publish_rate > 0 else 1.0
         self._ticking = self.publish_rate > 0 or self.stale_after > 0 or self.ticks_core
-        self._next_tick: float | None = None
+        #: The next tick is k / rate: an integer, so that the grid never drifts and
+        #: every run (live, a replay from any file) fires the very same tick times.
+        self._rate = self.publish_rate if self.publish_rate > 0 else 1.0
+        self._next_k: int | None = None
         # Publication state (results are applied in order, after the calls).
         self._last_input_t: float | None = None
         self._held: Estimate | None = None
@@ -301,6 +314,8 @@ class WorkerHost:
     def watermark(self) -> int:
         """Every estimate this worker will make from records numbered <= this is
         already published."""
+        if self._finished:
+            return self.router.seq
         if self._busy or self._pending or len(self.sub.queue):
             return self._done
         return self.bound()
@@ -378,23 +393,25 @@ class WorkerHost:
     def _tick_to(self, t: float, seq: int, calls: list[Call], causes: list[int]) -> None:
         if not self._ticking or not math.isfinite(t):
             return
-        nxt = self._next_tick
-        period = self._period
-        if nxt is None:  # the grid is absolute: k·period in data time
-            self._next_tick = (math.floor(t / period) + 1) * period
+        rate = self._rate
+        k = self._next_k
+        if k is None:  # the grid is absolute: k / rate in data time
+            self._next_k = math.floor(t * rate) + 1
             return
-        if nxt > t:
+        if k / rate > t:
             return
-        n = math.floor((t - nxt) / period) + 1
+        last = math.floor(t * rate)  # the latest tick at or before t
+        if last / rate > t:  # floor of a product that rounded up
+            last -= 1
+        n = last - k + 1
         if n > MAX_CATCHUP_TICKS:
             self.health.count("ticks_skipped", n - 1)
-            nxt += (n - 1) * period
+            k = last
             n = 1
-        for _ in range(n):
-            calls.append(("tick", nxt))
+        for i in range(k, k + n):
+            calls.append(("tick", i / rate))
             causes.append(seq)
-            nxt += period
-        self._next_tick = nxt
+        self._next_k = k + n
 
     def _flush_reorder(self, seq: int, calls: list[Call], causes: list[int]) -> None:
         while self._reorder:
@@ -487,7 +504,8 @@ class WorkerHost:
                     results = await self.runner.call(calls)
                 except CoreFailed as exc:
                     self._apply(calls[: len(exc.results)], exc.results, causes)
-                    lost = sum(1 for what, _ in calls[len(exc.results) + 1 :] if what == "step")
+                    # the call that failed and every one after it
+                    lost = sum(1 for what, _ in calls[len(exc.results) :] if what == "step")
                     if lost:
                         self.health.count("dropped.core_failure", lost)
                     raise
@@ -515,7 +533,7 @@ class WorkerHost:
         while True:
             if self._closing and not len(queue):
                 if self._pending and self._pending[0][0] > self.bound():
-                    await get()  # an upstream worker is still finishing
+                    self._take(await get())  # an upstream worker is still finishing
                     continue
                 await self._work([], final=True)
                 if not self._pending and not len(queue):
@@ -538,7 +556,10 @@ class WorkerHost:
         await self.runner.stop()
 
     async def finish(self, timeout: float) -> None:
-        """Step everything queued, release the reorder window, stop the core."""
+        """Step everything queued, release the reorder window, stop the core. Once:
+        a replay finishes its workers at its end, and its runtime's stop() asks again."""
+        if self._finished:
+            return
         self._closing = True
         self.wake()
         task = self.task
@@ -549,8 +570,17 @@ class WorkerHost:
             if not done:
                 task.cancel()
                 log.error("event=stop-timeout worker=%s reason='did not finish within %g s'", self.name, timeout)
+                if isinstance(self.runner, ProcessRunner):
+                    self.runner.kill_now()  # the helper thread may be waiting on it
                 await asyncio.wait([task], timeout=1.0)
-        rest = len(self.sub.queue) + len(self._pending) + len(self._reorder)
+        rest = sum(1 for _, rec in self.sub.queue if rec is not None) + len(self._pending) + len(self._reorder)
+        if self._held is not None:  # decimated, not yet published: the last word
+            self._publish(self._held, self.router.seq)
+            self._held = None
+        # Whatever happened, nothing more comes from this worker: downstream stops waiting.
+        self._finished = True
+        for d in self.downstream:
+            d.wake()
         if rest:
             self.health.count("dropped.shutdown", rest)
         try:

@@ -13,7 +13,7 @@ from functools import cache
 from typing import Any
 
 from edged.estimates import COMMON_FIELDS, DRAFT_MARKS, ESTIMATE_KINDS, EstField, EstimateKind
-from edged.records import KINDS, TWO_PI, Field, KindSpec
+from edged.records import KINDS, Field, KindSpec
 
 __all__ = [
     "SCHEMA_ENCODING",
@@ -106,10 +106,8 @@ def _estimate() -> dict[str, Any]:
 
 def _est_field(f: EstField) -> dict[str, Any]:
     types: Any = [f.type, "null"] if f.nullable else f.type
-    s: dict[str, Any] = {"type": types, "description": f"{f.doc} [{f.unit}]"}
-    if f.angle:
-        s["minimum"], s["maximum"] = 0.0, TWO_PI
-    return s
+    # No bounds for angles: a heading is in [0, 2π), a drift angle in (−π, π].
+    return {"type": types, "description": f"{f.doc} [{f.unit}]"}
 
 
 def _estimate_kind(kind: EstimateKind) -> dict[str, Any]:

@@ -176,9 +176,10 @@ async def test_publish_rate_decimates_on_data_time_the_same_at_any_batching(regi
 
     one_by_one = await run(1)
     assert one_by_one == await run(13) == await run(1000)
-    # one per grid second 101..104, each the newest estimate before that tick
-    assert [round(t, 2) for t, _ in one_by_one] == [100.95, 101.95, 102.95, 103.95]
-    assert [v["n"] for _, v in one_by_one] == [10, 20, 30, 40]
+    # one per grid second 101..104, each the newest estimate before that tick, and the
+    # newest of all when the worker finishes (nothing held back at the end)
+    assert [round(t, 2) for t, _ in one_by_one] == [100.95, 101.95, 102.95, 103.95, 104.95]
+    assert [v["n"] for _, v in one_by_one] == [10, 20, 30, 40, 50]
 
 
 async def test_a_core_with_tick_publishes_on_the_grid(registry):
@@ -254,6 +255,7 @@ async def test_a_process_worker_that_is_killed_comes_back(registry):
     await settle(rt)
     await rt.stop()
     assert "process died" in w.health.last_error
+    assert w.health.counters["dropped.core_failure"] == 1  # 101.0: the batch the dead process lost
     got = streams(ListOutput.instances[0].records)["m"]
     # a fresh core after the restart: its count starts again
     assert [(t, v["n"]) for t, v in got][0] == (100.0, 1) and got[-1][1]["n"] >= 1 and got[-1][0] == 102.0
@@ -323,3 +325,92 @@ def test_chi2_band_and_monitor_agree_with_a_consistent_filter():
     assert s["in_band_95"] == pytest.approx(0.95, abs=0.015)
     with pytest.raises(ValueError):
         InnovationMonitor(window=0)
+
+
+async def test_tick_times_are_exact_grid_points_however_long_the_run(registry):
+    """k / rate, never a running sum: six hours of 10 Hz ticks at today's epoch land
+    on the grid, so runs that start at different moments share every tick (a sum of
+    0.1 s steps drifts by tens of ms a day)."""
+    t0 = 1_732_350_000.03
+    est = {"m": {"type": "mean", "publish_rate": 10.0, "tick_only": True, "stale_after": 0.0}}
+    rt = _runtime(registry, {"estimators": est})
+    await rt.start()
+    for i in range(0, 6 * 3600 + 1, 60):  # one input a minute: 600 ticks between
+        rt.router.publish(yaw(t0 + i, 0.1))
+    await settle(rt)
+    await rt.stop()
+    ticks = [t for t, _ in streams(ListOutput.instances[0].records)["m"]]
+    assert len(ticks) == 6 * 3600 * 10
+    k0 = round(ticks[0] * 10)
+    assert all(t == (k0 + i) / 10 for i, t in enumerate(ticks))
+
+
+async def test_a_gap_longer_than_the_catch_up_bound_skips_ticks_and_counts_them(registry):
+    rt = _runtime(registry, {"estimators": {"m": {"type": "mean", "publish_rate": 1.0, "stale_after": 0.0}}})
+    await rt.start()
+    rt.router.publish(yaw(100.5, 0.1))
+    rt.router.publish(yaw(100.5 + 5000.0, 0.2))  # 5000 ticks in the gap: more than 1000
+    await settle(rt)
+    await rt.stop()
+    assert rt.workers[0].health.counters["ticks_skipped"] == 4999
+
+
+async def test_a_failing_core_counts_the_input_it_failed_on_and_what_followed(registry):
+    rt = _runtime(registry, {"estimators": {"s": {"type": "sum", "fail_on": 13.0, "stale_after": 0.0}}})
+    rt.restart = type(rt.restart)(initial=0.01, maximum=0.01)
+    for i, r in enumerate((1.0, 2.0, 13.0, 4.0, 5.0, 6.0)):  # one batch: the failure takes 13, 4, 5, 6
+        rt.router.publish(yaw(100.0 + i, r))
+    await rt.start()
+    await wait_for(lambda: rt.workers[0].health.restarts == 1)
+    await rt.stop()
+    h = rt.workers[0].health
+    assert h.counters["steps"] == 2 and h.counters["dropped.core_failure"] == 4
+
+
+async def test_stop_does_not_wait_on_an_upstream_worker_in_backoff(registry):
+    est = {"sum": {"type": "sum", "fail_on": 13.0}, "chain": {"type": "chain", "upstream": "sum"}}
+    rt = _runtime(registry, {"edged": {"shutdown_timeout": 30.0}, "estimators": est})
+    rt.restart = type(rt.restart)(initial=3600.0, maximum=3600.0)  # it will not come back
+    await rt.start()
+    rt.router.publish(yaw(100.0, 13.0))
+    await wait_for(lambda: rt.workers[0].health.state == "backoff")
+    rt.router.publish(yaw(101.0, 1.0))
+    loop = asyncio.get_running_loop()
+    t0 = loop.time()
+    await rt.stop()
+    assert loop.time() - t0 < 10.0  # not the 30 s shutdown timeout
+    chain = rt.workers[1].health
+    assert chain.counters["steps"] == 2 and "dropped.shutdown" not in chain.counters
+    assert rt.workers[0].health.counters["dropped.shutdown"] == 1  # the sum never saw 101.0
+
+
+async def test_finishing_twice_is_harmless_and_wakes_are_not_counted_as_drops(registry):
+    rt = _runtime(registry, {"estimators": {"m": {"type": "mean", "worker": "process"}}})
+    await rt.start()
+    rt.router.publish(yaw(100.0, 0.1))
+    await settle(rt)
+    await rt.finish_workers()
+    await rt.stop()  # finishes again
+    h = rt.workers[0].health
+    assert "errors" not in h.counters and "dropped.shutdown" not in h.counters
+
+
+@pytest.mark.parametrize(
+    "tables, says",
+    [
+        ('[estimators.chain]\ntype = "chain"\nupstream = "nope"\n', "no estimator instance is named 'nope'"),
+        (
+            '[estimators.a]\ntype = "chain"\nupstream = "b"\n[estimators.b]\ntype = "chain"\nupstream = "a"\n',
+            "cycle",
+        ),
+    ],
+)
+def test_check_config_refuses_what_run_refuses_about_estimator_chains(registry, tmp_path, capsys, tables, says):
+    from edged.cli import build_parser
+    from edged.commands import dispatch
+
+    cfg = tmp_path / "edged.toml"
+    cfg.write_text(tables)
+    for argv in (["check-config", str(cfg)], ["run", "-c", str(cfg)]):
+        assert dispatch(build_parser().parse_args(argv), registry) == 2
+        assert says in capsys.readouterr().err
