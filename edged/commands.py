@@ -381,6 +381,14 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
             target = f" ({args.record})" if o.name == "record" and args.record else ""
             print(f"edged replay: output {o.name}{target}: {why}", file=sys.stderr)
             rc = EXIT_FAILURE
+    for w in rt.workers:
+        lost = sum(v for k, v in w.health.counters.items() if k.startswith("dropped.") or k == "overflow")
+        if w.gave_up:
+            print(f"edged replay: estimator {w.name}: {w.health.last_error} (gave up; its inputs were dropped)", file=sys.stderr)
+            rc = EXIT_FAILURE
+        elif lost:
+            print(f"edged replay: estimator {w.name}: lost {lost} inputs (last error: {w.health.last_error})", file=sys.stderr)
+            rc = EXIT_FAILURE
     if outcome.interrupted is not None:
         rc = EXIT_FAILURE
     return rc
@@ -442,7 +450,6 @@ async def _replay(
         task = loop.create_task(replayer.run(), name="replay")
         if outcome.interrupted is not None:  # a signal while the outputs opened
             task.cancel()
-        log.info("event=replay-started inputs=%d speed=%g", len(paths), args.speed)
         try:
             return await task
         except asyncio.CancelledError:

@@ -210,6 +210,10 @@ class Replayer:
         # A publisher that is not linked yet would lose the voyage's start (counted,
         # but lost): every output gets its bounded chance to link first.
         await self.rt.outputs_ready()
+        # Look at the queues often enough that none fills between two looks, however
+        # small it is configured (a raw record makes a few measurements): the replay
+        # then never drops, whatever its speed.
+        batch = max(1, min([BATCH, *(w.sub.queue.maxsize // 8 for w in self.rt.workers)]))
         iters = [self._open(p) for p in self.paths]
         merged = heapq.merge(*iters, key=_t) if len(iters) > 1 else iters[0]
         rt = self.rt
@@ -239,6 +243,8 @@ class Replayer:
                     t0 = t
                     stats.t_first = t
                     next_tick = t + interval
+                    # after the outputs are linked, at the first record: data flows now
+                    log.info("event=replay-started inputs=%d speed=%g", len(self.paths), speed)
                 clock.advance_to(t)
                 if speed > 0:
                     delay = wall0 + (t - t0) / speed - loop.time()
@@ -270,7 +276,7 @@ class Replayer:
                     if wall >= next_flush:
                         next_flush = wall + interval
                     next_tick = clock.now() + interval
-                if n % BATCH == 0:
+                if n % batch == 0:
                     await self._yield()
             stats.records = n
             stats.t_last = clock.now() if t0 is not None else None

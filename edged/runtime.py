@@ -31,6 +31,11 @@ from .workers import WorkerHost
 log = logging.getLogger("edged.runtime")
 
 
+#: Failures in a row after which a replay's worker gives up (its inputs then counted as
+#: dropped, the replay exits 1): a core that fails on every record must not hold it.
+REPLAY_GIVE_UP = 20
+
+
 class PluginBuildError(RuntimeError):
     """A plugin could not be constructed (names the plugin)."""
 
@@ -250,6 +255,8 @@ class Runtime:
         # failed core at once: its backoff would only stall the data, not spare a peer.
         worker_sleep = _no_wait if self.replay else self.sleep
         for w in self.workers:
+            if self.replay:
+                w.give_up_after = REPLAY_GIVE_UP
             self._spawn(
                 supervise(w.run, w.health, self.clock, policy=self.restart, sleep=worker_sleep, on_restart=w.on_restart),
                 f"estimator:{w.name}",

@@ -74,6 +74,11 @@ class CoreFailed(RuntimeError):
         self.results = results
 
 
+def _is_input(rec: Any) -> bool:
+    """A record for the core (not a wake-up, not a health beacon): what a drop loses."""
+    return rec is not None and rec.__class__ is not HealthRecord
+
+
 # -- runners: where the core runs ---------------------------------------------------
 class LoopRunner:
     """Calls the core in the event loop."""
@@ -292,7 +297,14 @@ class WorkerHost:
         self._done = 0  # watermark: everything caused by numbers <= this is published
         self._busy = False
         self._closing = False
-        self._finished = False  # finish() has run: nothing more will be published
+        self._finished = False  # nothing more will be published (finished or gave up)
+        self._finish_ran = False
+        #: Failures in a row after which the worker gives up (replay: a core that fails
+        #: on every attempt would otherwise be restarted for ever and hold the replay);
+        #: None: never (live, the supervisor's backoff spaces the attempts).
+        self.give_up_after: int | None = None
+        self._failures = 0
+        self.gave_up = False
         # Data time, reorder window, ticks.
         self._reorder: list[tuple[float, int, Any]] = []
         self._newest = -math.inf  # newest input time admitted
@@ -503,6 +515,7 @@ class WorkerHost:
                 try:
                     results = await self.runner.call(calls)
                 except CoreFailed as exc:
+                    self._failures += 1
                     self._apply(calls[: len(exc.results)], exc.results, causes)
                     # the call that failed and every one after it
                     lost = sum(1 for what, _ in calls[len(exc.results) :] if what == "step")
@@ -510,6 +523,7 @@ class WorkerHost:
                         self.health.count("dropped.core_failure", lost)
                     raise
                 self._apply(calls, results, causes)
+                self._failures = 0
             finally:
                 self._busy = False
         if not more:
@@ -523,8 +537,15 @@ class WorkerHost:
 
     async def run(self) -> None:
         """Feed the core until cancelled or, after `finish()`, until all is done."""
+        if self.give_up_after is not None and self._failures >= self.give_up_after:
+            await self._given_up()
+            return
         self.health.set_state("starting")
-        await self.runner.start()
+        try:
+            await self.runner.start()
+        except Exception:
+            self._failures += 1  # a core that cannot even start fails like one that raises
+            raise
         self.health.set_state("running")
         get = self.sub.queue.get_batch
         queue = self.sub.queue
@@ -544,6 +565,25 @@ class WorkerHost:
             if in_loop:
                 await asyncio.sleep(0)  # a batch stepped in the loop: let the inputs run
 
+    async def _given_up(self) -> None:
+        """No core any more: what arrives is counted as dropped, and nothing waits on
+        this worker (downstream workers, the replay's back-pressure)."""
+        self.gave_up = True
+        self._finished = True
+        self.health.set_state("failed", f"gave up after {self._failures} failures in a row")
+        lost = sum(1 for *_, rec in self._pending if _is_input(rec)) + len(self._reorder)
+        self._pending.clear()
+        self._reorder.clear()
+        for d in self.downstream:
+            d.wake()
+        get = self.sub.queue.get_batch
+        while True:
+            if lost:
+                self.health.count("dropped.core_failure", lost)
+            if self._closing and not len(self.sub.queue):
+                return
+            lost = sum(1 for _, rec in await get(1 << 30) if _is_input(rec))
+
     def restart(self) -> None:
         """After a failure: a fresh core next time `run()` starts (inputs kept)."""
         self._held = None
@@ -558,8 +598,9 @@ class WorkerHost:
     async def finish(self, timeout: float) -> None:
         """Step everything queued, release the reorder window, stop the core. Once:
         a replay finishes its workers at its end, and its runtime's stop() asks again."""
-        if self._finished:
+        if self._finish_ran:
             return
+        self._finish_ran = True
         self._closing = True
         self.wake()
         task = self.task
@@ -573,7 +614,11 @@ class WorkerHost:
                 if isinstance(self.runner, ProcessRunner):
                     self.runner.kill_now()  # the helper thread may be waiting on it
                 await asyncio.wait([task], timeout=1.0)
-        rest = sum(1 for _, rec in self.sub.queue if rec is not None) + len(self._pending) + len(self._reorder)
+        rest = (
+            sum(1 for _, rec in self.sub.queue if _is_input(rec))
+            + sum(1 for *_, rec in self._pending if _is_input(rec))
+            + len(self._reorder)
+        )
         if self._held is not None:  # decimated, not yet published: the last word
             self._publish(self._held, self.router.seq)
             self._held = None
@@ -589,6 +634,8 @@ class WorkerHost:
             self.health.error(f"stop: {type(exc).__name__}: {exc}")
         if isinstance(self.runner, ProcessRunner):
             self.runner.close()
+        if self.gave_up:
+            self.health.set_state("failed", "gave up")
 
     def report(self) -> None:
         """Health snapshot time: the core's own report and the plugin's status."""

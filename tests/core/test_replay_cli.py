@@ -142,3 +142,26 @@ def test_daemon_process_stops_on_sigterm_with_exit_0(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+def test_a_replay_whose_core_fails_on_every_record_ends_with_exit_1(registry, write_config, tmp_path, capsys):
+    log = tmp_path / "gyro.log"
+    log.write_text("#dummy\n" + "".join(f"{i}.0 yaw_rate r=7\n" for i in range(1, 200)))
+    # a small queue: the replay feeds it a few records at a time, so the core fails many times
+    cfg = write_config('[estimators.sum]\ntype = "sum"\nfail_on = 7.0\nqueue_size = 8\n[outputs.rec]\ntype = "list"\n')
+    ListOutput.instances.clear()
+    assert _run(registry, "replay", str(log), "-c", str(cfg), "--no-zenoh", "--no-progress") == 1
+    err = capsys.readouterr().err
+    assert "estimator sum" in err and "gave up" in err
+    from edged.runtime import REPLAY_GIVE_UP
+
+    # every record accounted for: the ones the failing core was given, the rest dropped
+    h = [r for r in ListOutput.instances[0].records if getattr(r, "route_key", "") == "health"][-1]
+    c = h.values["estimators"]["sum"]["counters"]
+    assert c["errors"] == REPLAY_GIVE_UP and c["dropped.core_failure"] + c.get("steps", 0) == 199
+
+
+def test_a_replay_whose_core_failed_and_lost_inputs_exits_1(registry, write_config, logs, capsys):
+    cfg = write_config('[estimators.sum]\ntype = "sum"\nfail_on = 2.0\n[outputs.rec]\ntype = "list"\n')
+    assert _run(registry, "replay", str(logs[0]), "-c", str(cfg), "--no-zenoh", "--no-progress") == 1
+    assert "estimator sum: lost" in capsys.readouterr().err
