@@ -297,7 +297,7 @@ def test_estimate_option_restricts_and_unscorable_kinds_are_named(mcap, truth_cs
     assert "no estimate named nope" in err and "stw_paper" in err
 
 
-def test_a_closed_pipe_ends_quietly(mcap, truth_csv):
+def test_a_closed_pipe_is_one_line_never_a_traceback(mcap, truth_csv):
     recs = [stw(T0 + i, stw=5.1, sog=6.0) for i in range(10)]
     truth = truth_csv({"t": [T0, T0 + 30.0], "stw": [5.0, 5.0]})
     path = mcap(recs)
@@ -310,7 +310,9 @@ def test_a_closed_pipe_ends_quietly(mcap, truth_csv):
         )
     finally:
         os.close(w)
-    assert "Traceback" not in proc.stderr.decode() and "BrokenPipe" not in proc.stderr.decode()
+    err = proc.stderr.decode()
+    assert "Traceback" not in err and "BrokenPipe" not in err
+    assert "edged score: standard output closed by its reader" in err
     assert proc.returncode == 1
 
 

@@ -305,3 +305,19 @@ def test_rcvbuf_is_validated_by_the_configuration():
     for bad in (100, -1, 2**40, "big"):
         with _pytest.raises(ValidationError):
             Nmea0183Config.model_validate({"type": "nmea0183", "transport": "udp", "port": 10110, "rcvbuf": bad})
+
+
+async def test_a_socket_failure_during_a_flood_is_not_lost():
+    """The failure arrives while the queue is full: it must still end the link after
+    the queued datagrams are read, not vanish in the event loop's callback."""
+    from edged_nmea0183.transports.udp import UdpTransport, _Receiver
+
+    t = UdpTransport("127.0.0.1", 9)
+    t._queue = asyncio.Queue(maxsize=2)
+    rx = _Receiver(t._queue, t)
+    rx.datagram_received(b"a", None)
+    rx.datagram_received(b"b", None)
+    rx.connection_lost(OSError("network is down"))  # the queue is full
+    assert [await t.read(), await t.read()] == [b"a", b"b"]
+    with pytest.raises(OSError, match="network is down"):
+        await t.read()

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -33,7 +32,7 @@ from mcap.exceptions import McapError
 
 from ..reading import ReadReport, iter_messages
 from ..scoring import LAGS, SIGMAS, Recording, Row, ScoreError, load_truth, score
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
+from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, command, existing_file, fail
 
 
 def read_recording(path: Path) -> tuple[Recording, ReadReport]:
@@ -106,20 +105,8 @@ def render(rows: list[Row]) -> str:
 
 
 def _emit(text: str) -> int:
-    """Write the result; a reader that went away (`| head`) ends it quietly."""
-    try:
-        sys.stdout.write(text)
-        sys.stdout.flush()
-    except BrokenPipeError:
-        # Python flushes stdout again at exit and would report the same broken pipe:
-        # point the descriptor at /dev/null so that flush has somewhere to go.
-        try:
-            devnull = os.open(os.devnull, os.O_WRONLY)
-            os.dup2(devnull, sys.stdout.fileno())
-            os.close(devnull)
-        except (OSError, ValueError):
-            pass
-        return EXIT_FAILURE
+    """Write the result (a reader that went away is `command`'s to report)."""
+    sys.stdout.write(text)
     return EXIT_OK
 
 
@@ -129,6 +116,7 @@ def _os_error(path: Path, exc: OSError) -> int:
     return fail(f"{exc.filename or path}: {exc.strerror or exc}", code)
 
 
+@command("score")
 def main(args: argparse.Namespace) -> int:
     warmup = args.warmup
     if not (isinstance(warmup, (int, float)) and math.isfinite(warmup) and warmup >= 0):

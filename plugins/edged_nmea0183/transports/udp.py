@@ -95,7 +95,10 @@ class _Receiver(asyncio.DatagramProtocol):
 
     def connection_lost(self, exc: Exception | None) -> None:
         if exc is not None:
-            self._queue.put_nowait(exc)
+            try:
+                self._queue.put_nowait(exc)
+            except asyncio.QueueFull:  # a flood filled the queue: read() raises it next
+                self._owner.failure = exc
 
 
 class UdpTransport(Transport):
@@ -109,6 +112,8 @@ class UdpTransport(Transport):
         self.rcvbuf = rcvbuf
         #: Datagrams dropped because the queue to the framer was full.
         self.dropped = 0
+        #: A socket failure that found the queue full (a flood): read() raises it.
+        self.failure: BaseException | None = None
         #: Datagrams the kernel dropped, summed over every socket this transport opened.
         self.kernel_dropped = 0
         #: False when the platform cannot tell kernel drops (then not reported).
@@ -189,6 +194,11 @@ class UdpTransport(Transport):
 
     async def read(self) -> bytes:
         assert self._queue is not None, "read before open"
+        failure, self.failure = self.failure, None
+        if failure is not None and self._queue.empty():
+            raise OSError(f"udp socket failed: {failure}") from failure
+        if failure is not None:
+            self.failure = failure  # what was queued before it is read first
         item = await self._queue.get()
         if isinstance(item, BaseException):
             raise OSError(f"udp socket failed: {item}") from item
