@@ -48,10 +48,20 @@ def _tod_ok(seconds: Any) -> bool:
     return seconds is None or 0.0 <= seconds < _DAY + 1.0
 
 
+#: NMEA 2000 angles are 0.0001 rad counts: a sensor reading 359.999° sends 62832, which
+#: is 6.2832 rad, a hair above 2π. Up to one count beyond 2π is north; 0xFFFC (6.5532)
+#: and the like are not directions.
+_ANGLE_LSB = 1e-4
+
+
 def _direction(a: Any) -> float | None:
     """A heading/COG in [0, 2π), or None when it is not one (beyond 2π, negative)."""
     a = float(a)
-    return a + 0.0 if 0.0 <= a < TWO_PI else None  # + 0.0: −0.0 becomes 0.0
+    if 0.0 <= a < TWO_PI:
+        return a + 0.0  # + 0.0: −0.0 becomes 0.0
+    if TWO_PI <= a <= TWO_PI + _ANGLE_LSB:
+        return 0.0  # 360° quantised upward
+    return None
 
 
 def _signed_angle(a: Any) -> float | None:

@@ -48,7 +48,7 @@ def _heading_raw(raw: int, ref: int = 0, dev: int = 0x7FFF, var: int = 0x7FFF) -
 
 # ---- item 1: angles beyond 2π are not values ---------------------------------------
 
-@pytest.mark.parametrize("raw", [0xFFFC, 62832, 65000])
+@pytest.mark.parametrize("raw", [0xFFFC, 62833, 65000])
 @pytest.mark.parametrize("ref", [0, 1])
 def test_heading_above_two_pi_is_rejected_not_wrapped(feed, health, build, raw, ref):
     assert feed((build.n2k_id(127250, 28), _heading_raw(raw, ref, var=round(math.radians(5) / RAD)))) == []
@@ -59,6 +59,13 @@ def test_heading_above_two_pi_is_rejected_not_wrapped(feed, health, build, raw, 
 def test_heading_just_below_two_pi_is_kept(feed, build):
     (m,) = feed((build.n2k_id(127250, 28), _heading_raw(62831)))
     assert m.values["heading"] == pytest.approx(6.2831)
+
+
+def test_a_heading_of_360_degrees_quantised_upward_is_north(feed, build):
+    """62832 counts (6.2832 rad, one count above 2π) is what a sensor reading 359.999°
+    sends: north, not an impossible value."""
+    (m,) = feed((build.n2k_id(127250, 28), _heading_raw(62832)))
+    assert m.values["heading"] == 0.0
 
 
 def test_heading_zero_is_positive_zero(feed, build):
