@@ -107,6 +107,11 @@ class ReadReport:
     def healthy(self) -> bool:
         return self.finished and not self.damaged
 
+    @property
+    def unfinished_why(self) -> str:
+        """Why reading ended before a footer, in words (for every command's message)."""
+        return self.error or ("ends inside a record" if self.truncated else "has no footer")
+
 
 class _Damage(ValueError):
     """A record that cannot be what its fields say (the reason)."""

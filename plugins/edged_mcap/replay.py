@@ -86,13 +86,7 @@ def _report(report: ReadReport, health: ComponentHealth, name: str | Path) -> No
     if report.truncated or report.error or not report.finished:
         # A length field that cannot be true is damage; a file that just stops is not.
         health.count("damaged" if (report.error or "").startswith("damaged") else "truncated")
-        if report.error:
-            why = report.error
-        elif report.truncated:
-            why = "ends inside a record"
-        else:
-            why = "has no footer"
         health.error(
-            f"{name}: unfinished recording ({why}): read {report.messages} messages "
+            f"{name}: unfinished recording ({report.unfinished_why}): read {report.messages} messages "
             f"in {report.chunks} complete chunks; anything after them is lost"
         )

@@ -26,7 +26,7 @@ def _health(s: FileStats) -> str:
     if r.finished:
         parts.append("finished" + (", summary present" if r.summary else ", no summary"))
     else:
-        why = r.error or ("ends inside a record" if r.truncated else "no footer")
+        why = r.unfinished_why
         parts.append(f"UNFINISHED ({why}): run `edged recover {s.path}`")
     if r.bad_chunks:
         parts.append(f"{r.bad_chunks} damaged chunk(s) skipped")

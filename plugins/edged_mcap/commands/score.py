@@ -56,7 +56,7 @@ def _damage_notes(path: Path, report: ReadReport, rec: Recording) -> list[str]:
     """What a damaged or unfinished file cost: scored anyway, from what was readable."""
     notes = []
     if not report.finished:
-        why = report.error or ("ends inside a record" if report.truncated else "no footer")
+        why = report.unfinished_why
         notes.append(f"{path}: unfinished recording ({why}); scored what was readable")
     if report.bad_chunks:
         notes.append(f"{path}: {report.bad_chunks} damaged chunk(s) skipped")
