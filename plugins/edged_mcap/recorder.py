@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Callable, ClassVar, Iterator
 
 import edged
+from edged.backoff import Backoff
 from edged.health import ComponentHealth
 from edged.plugin import OutputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
@@ -123,7 +124,8 @@ class McapRecorder(OutputPlugin):
         self._final = False  # an exact file that failed is never reopened
         self._max_chunks = max_chunks
         self._pending = 0  # messages added to the open chunk(s), not yet flushed to the file
-        self._failures = 0  # attempts in a row that failed with an OS error (the backoff)
+        #: The wait after each attempt in a row that failed with an OS error.
+        self._backoff = Backoff(config.retry_seconds, max(RETRY_MAX_SECONDS, config.retry_seconds))
         self.files: list[Path] = []
 
     # -- the OutputPlugin contract -----------------------------------------------------
@@ -227,7 +229,7 @@ class McapRecorder(OutputPlugin):
         if self._pending:
             self.ctx.health.count("recorded", self._pending)
             self._pending = 0
-            self._failures = 0  # a file that took data: the next trouble starts afresh
+            self._backoff.reset()  # a file that took data: the next trouble starts afresh
 
     def _lose_pending(self) -> None:
         if self._pending:
@@ -429,10 +431,7 @@ class McapRecorder(OutputPlugin):
 
     def _failed_attempt(self, state: str, message: str) -> None:
         """Stop after an OS error, and wait longer before each new attempt in a row."""
-        self._failures += 1
-        cap = max(RETRY_MAX_SECONDS, self.config.retry_seconds)
-        wait = min(self.config.retry_seconds * 2.0 ** min(self._failures - 1, 60), cap)
-        self._next_check = self.ctx.clock.monotonic() + wait
+        self._next_check = self.ctx.clock.monotonic() + self._backoff.next_delay()
         self._stop(state, message)
 
     def _stop(self, state: str, message: str | None = None) -> None:
