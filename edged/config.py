@@ -68,6 +68,15 @@ MAX_BACKOFF = 86_400.0
 MAX_WATCHDOG = 86_400.0
 
 
+def not_below(v: float, info: ValidationInfo, lower: str) -> float:
+    """A field validator's check that `v` is at least the already validated `lower`
+    field (a backoff's maximum and its initial delay)."""
+    low = info.data.get(lower)
+    if low is not None and v < low:
+        raise ValueError(f"must be >= {lower} ({low})")
+    return v
+
+
 class ReconnectSettings(BaseModel):
     """Mixin for a plugin that (re)opens a link: the delays between attempts."""
 
@@ -81,10 +90,7 @@ class ReconnectSettings(BaseModel):
     @field_validator("backoff_max")
     @classmethod
     def _backoff_order(cls, v: float, info: ValidationInfo) -> float:
-        initial = info.data.get("backoff_initial")
-        if initial is not None and v < initial:
-            raise ValueError(f"must be >= backoff_initial ({initial})")
-        return v
+        return not_below(v, info, "backoff_initial")
 
     def backoff(self) -> Backoff:
         return Backoff(self.backoff_initial, self.backoff_max)

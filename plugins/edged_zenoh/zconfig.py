@@ -29,6 +29,7 @@ import json5
 import zenoh
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
+from edged.config import not_below
 from edged.plugin import Claim
 
 __all__ = [
@@ -187,10 +188,7 @@ class ZenohSettings(BaseModel):
     @field_validator("retry_max")
     @classmethod
     def _retry_order(cls, v: float, info: ValidationInfo) -> float:
-        initial = info.data.get("retry_initial")
-        if initial is not None and v < initial:
-            raise ValueError(f"must be >= retry_initial ({initial})")
-        return v
+        return not_below(v, info, "retry_initial")
 
     def claims(self) -> list[Claim]:
         """The ports of the `listen` endpoints it names.

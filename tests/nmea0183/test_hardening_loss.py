@@ -8,57 +8,19 @@ import os
 import socket
 import tty
 from types import SimpleNamespace
-from typing import Any
 
 import pytest
 
-from edged.clock import ManualClock
-from edged.plugin import PluginContext
-from edged.records import RawRecord
 from edged_nmea0183.config import Nmea0183Config
-from edged_nmea0183.plugin import Nmea0183Input
+from nmea_rig import NOW, TIMEOUT, make
 from edged_nmea0183.transports import udp as udp_mod
 from edged_nmea0183.transports.udp import UdpTransport, kernel_drops, proc_drops
 
 HDT = b"$HEHDT,274.07,T*19"
 GGA = b"$GPGGA,094736,5251.0094,N,00518.8172,E,1,12,0.60,-4,M,46.8,M,,*4B"
-NOW = 1_700_000_000.0
-TIMEOUT = 10.0
 linux = pytest.mark.skipif(not os.path.exists("/proc/net/udp"), reason="kernel drop counters are Linux's")
 
 
-class Sink:
-    def __init__(self) -> None:
-        self.items: list[Any] = []
-        self.changed = asyncio.Event()
-
-    def __call__(self, rec: Any) -> None:
-        self.items.append(rec)
-        self.changed.set()
-
-    @property
-    def raw(self) -> list[RawRecord]:
-        return [r for r in self.items if isinstance(r, RawRecord)]
-
-    async def wait_raw(self, n: int) -> None:
-        async with asyncio.timeout(TIMEOUT):
-            while len(self.raw) < n:
-                self.changed.clear()
-                await self.changed.wait()
-
-
-def make(health, sleep=None, **cfg: Any) -> tuple[Nmea0183Input, Sink]:
-    config = Nmea0183Config(type="nmea0183", **cfg)
-    sink = Sink()
-    ctx = PluginContext(
-        name="gnss1",
-        clock=ManualClock(NOW),
-        health=health,
-        publish=sink,
-        decoder=Nmea0183Input.make_decoder("gnss1", config, health),
-    )
-    kw = {"sleep": sleep} if sleep is not None else {}
-    return Nmea0183Input(config, ctx, **kw), sink
 
 
 async def stop(task: asyncio.Task) -> None:
