@@ -45,7 +45,11 @@ class EstField:
     `std`: dotted path, in the same payload, of this field's 1-σ (e.g. `stw_std`,
     `std.u`). `truth`: the truth column it is scored against (`edged score`; the
     simulator's `truth.csv` names); None when no truth exists. `baseline`: the
-    measurement (kind, field) this estimate replaces, scored beside it.
+    measurement (kind, field) this estimate replaces, scored beside it. `derived`:
+    names of baselines `edged score` computes from other measurements and scores
+    beside this field (`naive_stw`: SOG − the latest current forecast along the
+    course, what a crew without this estimator would do); the computations are
+    `edged_mcap.scoring.DERIVED`.
     """
 
     name: str
@@ -57,6 +61,7 @@ class EstField:
     std: str | None = None
     truth: str | None = None
     baseline: tuple[str, str] | None = None
+    derived: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +78,8 @@ class ScoredField:
     #: For a baseline of a kind with several instances (draft marks): only the
     #: measurements whose `mark` equals this.
     baseline_mark: str | None = None
+    #: Derived baselines scored beside it (`EstField.derived`).
+    derived: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,7 +98,7 @@ class EstimateKind:
         """Every value of this kind that has a truth column, with its σ and baseline."""
         for f in self.fields:
             if f.truth is not None:
-                yield ScoredField(f.name, f.truth, f.unit, f.angle, f.std, f.baseline)
+                yield ScoredField(f.name, f.truth, f.unit, f.angle, f.std, f.baseline, derived=f.derived)
         for mark in DRAFT_MARKS if self.mark_fields else ():
             for f in self.mark_fields:
                 if f.truth is None:
@@ -105,6 +112,7 @@ class EstimateKind:
                     std,
                     f.baseline,
                     mark if f.baseline else None,
+                    f.derived,
                 )
 
 
@@ -134,7 +142,7 @@ ESTIMATE_KINDS: dict[str, EstimateKind] = {
             "Speed through water from GNSS, IMU and current, never from the Doppler log (seed 000).",
             (
                 _f("stw", "m/s", "speed through water (magnitude)", std="stw_std", truth="stw",
-                   baseline=("water_speed", "stw_long")),
+                   baseline=("water_speed", "stw_long"), derived=("naive_stw",)),
                 _f("stw_std", "m/s", "1-σ of stw"),
                 _f("sog", "m/s", "speed over ground (filtered)", truth="sog", baseline=("velocity_ground", "sog")),
                 _n("current", "m/s", "current speed (drift) used by the filter"),

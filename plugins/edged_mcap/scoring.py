@@ -34,15 +34,23 @@ An estimate kind with `lat`/`lon` (the manoeuvre kind) also gets a `position` ro
 horizontal distance from the true position in metres (see `position_errors`). A
 distance has no sign, so its "bias" is the mean distance, and it has no ±kσ figures
 (a 2-D error is judged against an ellipse, not a 1-D σ).
+
+Derived baselines (`EstField.derived`, computed here by `DERIVED`) are scored like a
+sensor: `naive_stw`, beside `stw`, is what a crew does without a filter or a log they
+trust: at each SOG/COG measurement, SOG − drift·cos(set − COG) with the latest current
+measurement at or before it (none before the first one). One row per pair of a
+`/meas/velocity_ground/<source>` and a `/meas/current/<source>` topic (sources are not
+mixed); a recording without either has no such row.
 """
 
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Iterable, Iterator, TextIO
+from typing import Any, Callable, Iterable, Iterator, TextIO
 
 import numpy as np
 
@@ -68,6 +76,9 @@ __all__ = [
     "Row",
     "Score",
     "score",
+    "Derived",
+    "DERIVED",
+    "naive_stw",
 ]
 
 EARTH_RADIUS = 6_371_008.8  # m, mean radius (IUGG)
@@ -302,13 +313,67 @@ def _estimate_paths(kind: EstimateKind) -> tuple[str, ...]:
     return tuple(paths)
 
 
+# -- derived baselines ----------------------------------------------------------------
+def naive_stw(
+    t_v: np.ndarray, sog: np.ndarray, cog: np.ndarray, t_c: np.ndarray, set_: np.ndarray, drift: np.ndarray
+) -> np.ndarray:
+    """SOG − the latest current forecast along the course, at each velocity sample.
+
+    `t_v`, `sog` (m/s), `cog` (rad): the velocity_ground measurements; `t_c`, `set_`
+    (rad, the direction the current flows toward), `drift` (m/s): the current
+    measurements, both in time order. At `t_v[i]` the forecast used is the latest
+    one with `t_c ≤ t_v[i]` (a forecast that arrives later is not known yet); a
+    forecast without set or drift is no forecast. NaN before the first forecast and
+    where SOG or COG is unknown.
+    """
+    ok = np.isfinite(t_c) & np.isfinite(set_) & np.isfinite(drift)
+    t_c, set_, drift = t_c[ok], set_[ok], drift[ok]
+    out = np.full(t_v.shape, math.nan)
+    if t_c.size == 0:
+        return out
+    j = np.searchsorted(t_c, t_v, side="right") - 1
+    has = j >= 0
+    jj = j[has]
+    out[has] = sog[has] - drift[jj] * np.cos(set_[jj] - cog[has])
+    return out
+
+
+@dataclass(frozen=True)
+class Derived:
+    """A baseline computed from measurements: its label, inputs and computation.
+
+    `inputs`: (measurement kind, fields) in the order `compute` takes them, each
+    source as its times then those fields' arrays; the first input's times are the
+    baseline's. One row is made per combination of the kinds' sources.
+    """
+
+    label: str
+    inputs: tuple[tuple[str, tuple[str, ...]], ...]
+    compute: Callable[..., np.ndarray]
+
+
+#: Derived baselines by the name `EstField.derived` gives them. Labels are ASCII
+#: (the table is read on any terminal).
+DERIVED: dict[str, Derived] = {
+    "naive_stw": Derived(
+        "naive: sog - forecast along course",
+        (("velocity_ground", ("sog", "cog")), ("current", ("set", "drift"))),
+        naive_stw,
+    ),
+}
+
+
 def _baseline_fields() -> dict[str, tuple[str, ...]]:
-    """Measurement kind -> the fields some estimate is compared with (and positions)."""
+    """Measurement kind -> the fields some estimate is compared with, directly or
+    through a derived baseline (and positions)."""
     out: dict[str, dict[str, None]] = {"position": {"lat": None, "lon": None}}
     for kind in ESTIMATE_KINDS.values():
         for f in kind.scored_fields():
             if f.baseline:
                 out.setdefault(f.baseline[0], {})[f.baseline[1]] = None
+            for name in f.derived:
+                for mkind, mfields in DERIVED[name].inputs:
+                    out.setdefault(mkind, {}).update(dict.fromkeys(mfields))
     return {k: tuple(v) for k, v in out.items()}
 
 
@@ -433,7 +498,8 @@ class Row:
     truth: str
     unit: str
     figures: Figures
-    #: For a sensor's row: the measurement topic and field it is read from.
+    #: For a sensor's row: the measurement topic and field it is read from; for a
+    #: derived baseline's row: its label (`DERIVED`) and the topics it is made from.
     baseline: str | None = None
     baseline_field: str | None = None
 
@@ -486,6 +552,24 @@ def _baseline_rows(rec: Recording, truth: Truth, est: str, kind: str, f: ScoredF
             continue  # this source does not measure it (another draft mark, no value)
         err, _ = field_errors(truth, f.truth, c.t, np.where(c.t >= start, v, math.nan), f.angle)
         yield Row(est, kind, f.path, f.truth, f.unit, figures(err), topic, mfield)
+
+
+def _derived_rows(rec: Recording, truth: Truth, est: str, kind: str, f: ScoredField, start: float) -> Iterator[Row]:
+    """The derived baselines of a field, one row per combination of input sources,
+    judged like a sensor (same warm-up start and truth span)."""
+    for name in f.derived:
+        d = DERIVED[name]
+        for topics in itertools.product(*(rec.topics_of(mkind) for mkind, _ in d.inputs)):
+            args: list[np.ndarray] = []
+            for topic, (_, mfields) in zip(topics, d.inputs):
+                c = rec.measurements[topic].columns()
+                args += [c.t, *(c.values[m] for m in mfields)]
+            t = args[0]
+            v = d.compute(*args)
+            if not np.isfinite(v).any():
+                continue  # nothing to judge (no sample after the first forecast)
+            err, _ = field_errors(truth, f.truth, t, np.where(t >= start, v, math.nan), f.angle)
+            yield Row(est, kind, f.path, f.truth, f.unit, figures(err), d.label, ", ".join(topics))
 
 
 def _position_baselines(rec: Recording, truth: Truth, est: str, kind: str, start: float) -> Iterator[Row]:
@@ -565,6 +649,7 @@ def score(rec: Recording, truth: Truth, warmup: float, only: Iterable[str] | Non
             sigma = vals[f.std][idx] if f.std else None
             rows.append(Row(name, kind, f.path, f.truth, f.unit, figures(err, sigma)))
             rows.extend(_baseline_rows(rec, truth, name, kind, f, start))
+            rows.extend(_derived_rows(rec, truth, name, kind, f, start))
     if not any(r.figures.n for r in rows if r.baseline is None):
         raise ScoreError(
             f"{rec.name}: nothing left to score after the {warmup:g} s warm-up "

@@ -5,8 +5,10 @@ Per scored field of every `/est/<name>` channel (`edged.estimates`: its truth co
 ±1/2/3σ and the error autocorrelation at lags 1, 10 and 60 samples (ESTIMATORS
 "Evaluation": a consistent filter covers 68/95/99.7 % and its converged error is
 white). The raw sensor rows sit indented under their field, judged by the same rules,
-so that "better than the sensor" is read off one table. The figures and the truth.csv
-format are in `edged_mcap.scoring`.
+so that "better than the sensor" is read off one table; so do the derived baselines
+(under `stw`: "naive: sog - forecast along course", SOG − the latest current forecast
+along COG, one row per GNSS and current source pair, none without currents). The
+figures and the truth.csv format are in `edged_mcap.scoring`.
 
 Output: a fixed-width table on stdout, or with `--json` one JSON list of rows (null
 where a figure does not apply). Notes (unscorable kinds, missing truth columns, bad
