@@ -145,6 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plot", help="the pictures an analyst wants, as PNG")
     p.add_argument("file", metavar="FILE.mcap")
     p.add_argument("-o", "--output", required=True, metavar="report.png")
+    p.add_argument("--truth", metavar="truth.csv",
+                   help="truth table (the simulator's truth.csv): adds the STW error and its autocorrelation")
 
     p = sub.add_parser("recover", help="make an unfinished recording valid again")
     p.add_argument("file", metavar="FILE.mcap")

@@ -1,0 +1,373 @@
+"""The STW estimator core: measurements in data-time order in, estimates at ticks out.
+
+It owns what both modes share: which inputs arrived and which are missing (and what
+that costs), the heading and rate of turn, the IMU averaging, the forecasts (their age,
+repeats, correlation and gate), the GNSS gates and their recovery, the Doppler log
+reading kept beside the estimate, the health report and the log-error warning.
+The filters themselves are `vector.VectorModel` and `paper.PaperModel`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from typing import Any
+
+from edged.innovation import InnovationMonitor
+from edged.records import Estimate, Measurement
+
+from .config import StwConfig
+from .paper import PaperModel
+from .vector import DVL_GATE, VectorModel
+
+log = logging.getLogger("edged.stw")
+
+INPUTS = frozenset({"position", "velocity_ground", "heading", "yaw_rate", "accel_body", "current", "water_speed"})
+
+#: What a vessel loses without each input (health `info.filter.missing`).
+COSTS: dict[str, str] = {
+    "position": "no GNSS position: velocity from SOG/COG alone, no distance check of the speed",
+    "velocity_ground": "no SOG/COG: the ground velocity comes from successive positions only",
+    "heading": "no heading: COG stands in for it, so stw_long/stw_trans are along/across the track, "
+               "the drift angle is not seen and the cross current comes from forecasts alone",
+    "accel_body": "no IMU: the acceleration is seen only through changes of SOG (slower response to speed changes)",
+    "current": "no current forecast: the current is unknown (σ grows to current_sigma_max), "
+               "so STW is SOG with that uncertainty",
+    "water_speed": "no Doppler/EM log: dvl_stw, dvl_bias and dvl_scale are null",
+}
+#: Inputs of each kind older than this (s) are not used as "the latest".
+HEADING_MAX_AGE = 30.0
+YAW_RATE_MAX_AGE = 5.0
+DVL_MAX_AGE = 10.0
+#: The log is fitted only against an STW known better than this (m/s).
+DVL_FIT_MAX_STD = 0.5
+
+
+class StwCore:
+    inputs = INPUTS
+
+    def __init__(self, cfg: StwConfig) -> None:
+        self.cfg = cfg
+        self.model: VectorModel | PaperModel = VectorModel(cfg) if cfg.mode == "vector" else PaperModel(cfg)
+        self.monitor = InnovationMonitor(window=100)
+        self.seen: Counter[str] = Counter()
+        self.rejected: Counter[str] = Counter()
+        self._heading: tuple[float, float] | None = None  # t, rad
+        self._rate: tuple[float, float] | None = None  # t, rad/s (from ROT or heading differences)
+        self._rate_from_rot = False
+        self._accel: list[float] | None = None  # [t_first, t_last, sum_n, sum_e, n]
+        self._dvl: tuple[float, float] | None = None  # t, stw_long
+        self._last_forecast: tuple[str, float, float, float | None] | None = None
+        self._forecast_t = -math.inf  # data time of the last accepted forecast
+        self._constant_t = -math.inf
+        self._gated_in_row: Counter[str] = Counter()
+        self._warnings: list[str] = []
+        self._pending_forecast: tuple[float, float, float] | None = None
+
+    # ------------------------------------------------------------------ inputs
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        kind = rec.kind if isinstance(rec, Measurement) else None
+        if kind is None:
+            return []
+        t = rec.t
+        v = rec.values
+        if kind != "accel_body":
+            self._flush_accel()
+        if isinstance(self.model, PaperModel):
+            for nis in self.model.advance(t):
+                self.monitor.update("gnss", nis, 2)
+        handler = getattr(self, "_on_" + kind, None)
+        if handler is not None:
+            self.seen[kind] += 1
+            was_ready = self.model.ready
+            handler(t, v, rec)
+            if not was_ready and self.model.ready and self._pending_forecast is not None:
+                self._forecast(t, *self._pending_forecast)
+                self._pending_forecast = None
+        self._constant_current(t)
+        return []
+
+    def _on_position(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        lat, lon = v.get("lat"), v.get("lon")
+        if not _finite(lat, lon):
+            self.rejected["position.incomplete"] += 1
+            return
+        m = self.model
+        if isinstance(m, PaperModel):
+            m.position(t, lat, lon)
+            return
+        nis, used = m.position(t, lat, lon)
+        self._gate_result("position", nis, used, lambda: m.reset_position(lat, lon), "position jump")
+
+    def _on_velocity_ground(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        sog, cog = v.get("sog"), v.get("cog")
+        if sog is not None and cog is None and _finite(sog) and sog < 0.05:
+            cog = 0.0  # stopped: no course, and none needed
+        if not _finite(sog, cog):
+            self.rejected["velocity_ground.incomplete"] += 1
+            return
+        if sog > self.cfg.max_sog:
+            self.rejected["velocity_ground.implausible"] += 1
+            return
+        m = self.model
+        if isinstance(m, PaperModel):
+            m.velocity(t, sog, cog)
+            return
+        v_n, v_e = sog * math.cos(cog), sog * math.sin(cog)
+        nis, used = m.velocity(t, v_n, v_e)
+        self._gate_result("velocity_ground", nis, used, lambda: m.reset_velocity(v_n, v_e), "SOG/COG jump")
+        if used:
+            heading = self._fresh_heading(t)
+            if heading is not None and not self._turning(t):
+                nis = m.cross(t, heading)
+                if nis is not None:
+                    self.monitor.update("heading_course", nis, 1)
+
+    def _gate_result(self, kind: str, nis: float | None, used: bool, reset: Any, what: str) -> None:
+        if used:
+            self._gated_in_row[kind] = 0
+            if nis is not None:
+                self.monitor.update(kind, nis, 2)
+            return
+        self.monitor.gated(kind)
+        self.rejected[f"{kind}.gate"] += 1
+        self._gated_in_row[kind] += 1
+        if self._gated_in_row[kind] >= self.cfg.gnss_reset_after:
+            reset()
+            self._gated_in_row[kind] = 0
+            self.monitor.reset(f"{what}: {self.cfg.gnss_reset_after} rejected in a row, GNSS trusted again", None)
+
+    def _on_heading(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        h = v.get("heading")
+        if not _finite(h):
+            self.rejected["heading.incomplete"] += 1
+            return
+        prev = self._heading
+        if prev is not None and not self._rate_from_rot and t - prev[0] >= 0.5:
+            d = (h - prev[1] + math.pi) % (2.0 * math.pi) - math.pi
+            self._rate = (t, d / (t - prev[0]))
+        if prev is None or t - prev[0] >= 0.5 or self._rate_from_rot:
+            self._heading = (t, h)
+        else:
+            self._heading = (prev[0], prev[1]) if t - prev[0] < 0.5 and self._rate is not None else (t, h)
+        self._heading = (t, h) if prev is None or self._rate_from_rot or t - prev[0] >= 0.5 else self._heading
+
+    def _on_yaw_rate(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        r = v.get("r")
+        if _finite(r):
+            self._rate = (t, r)
+            self._rate_from_rot = True
+
+    def _on_accel_body(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        ax, ay = v.get("ax"), v.get("ay")
+        if not _finite(ax, ay):
+            self.rejected["accel_body.incomplete"] += 1
+            return
+        m = self.model
+        if isinstance(m, PaperModel):
+            m.accel(ax, ay)
+            return
+        psi = self._fresh_heading(t)
+        if psi is None:
+            if m.ground is None or m.ground.speed(m.ground.x) < self.cfg.min_speed:
+                self.rejected["accel_body.no_heading"] += 1
+                return
+            psi = math.atan2(m.ground.x[3], m.ground.x[2])  # COG stands in
+        c, s = math.cos(psi), math.sin(psi)
+        a_n, a_e = c * ax - s * ay, s * ax + c * ay
+        blk = self._accel
+        if blk is None:
+            self._accel = [t, t, a_n, a_e, 1]
+        else:
+            blk[1] = t
+            blk[2] += a_n
+            blk[3] += a_e
+            blk[4] += 1
+        if t - self._accel[0] >= self.cfg.accel_average:
+            self._flush_accel()
+
+    def _flush_accel(self) -> None:
+        blk = self._accel
+        if blk is None:
+            return
+        self._accel = None
+        m = self.model
+        assert isinstance(m, VectorModel)
+        n = int(blk[4])
+        nis, used = m.accel(blk[1], blk[2] / n, blk[3] / n, n)
+        if nis is None:
+            return
+        if used:
+            self.monitor.update("accel_body", nis, 2)
+        else:
+            self.monitor.gated("accel_body")
+            self.rejected["accel_body.gate"] += 1
+
+    def _on_current(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        set_, drift = v.get("set"), v.get("drift")
+        if not _finite(set_, drift):
+            self.rejected["current.incomplete"] += 1
+            return
+        t_src = rec.t_src
+        if t_src is not None and t - t_src > self.cfg.forecast_max_age:
+            self.rejected["current.stale"] += 1
+            return
+        key = (rec.source, set_, drift, t_src)
+        if self._last_forecast == key:
+            self.rejected["current.repeated"] += 1
+            return
+        self._last_forecast = key
+        self._forecast(t, set_, drift, self.cfg.forecast_sigma)
+
+    def _forecast(self, t: float, set_: float, drift: float, sigma: float) -> None:
+        m = self.model
+        if not m.ready:
+            # Forecasts come every 20 minutes: the one that arrived before the first
+            # GNSS fix is kept for the moment the filter starts.
+            self._pending_forecast = (set_, drift, sigma)
+            return
+        if isinstance(m, PaperModel):
+            m.forecast(set_, drift)
+            self._forecast_t = t
+            return
+        # Forecasts closer together than their errors decorrelate count for less.
+        gap = t - self._forecast_t
+        var = sigma * sigma * max(1.0, self.cfg.forecast_interval / gap if gap > 0 else math.inf)
+        if not math.isfinite(var):
+            var = sigma * sigma * 1e6
+        c_n, c_e = drift * math.cos(set_), drift * math.sin(set_)
+        nis = m.forecast_nis(t, c_n, c_e, var)
+        if nis > self.cfg.forecast_gate:
+            self.monitor.gated("current")
+            self.rejected["current.gate"] += 1
+            self._gated_in_row["current"] += 1
+            if self._gated_in_row["current"] < 2:
+                return
+            # Two forecasts in a row disagree with the filter: the filter is wrong.
+            m.forget_current()
+            self.monitor.reset("forecasts disagree with the current estimate: current forgotten", t)
+        self._gated_in_row["current"] = 0
+        self.monitor.update("current", nis, 2)
+        m.forecast(t, c_n, c_e, var)
+        self._forecast_t = t
+
+    def _constant_current(self, t: float) -> None:
+        cc = self.cfg.current
+        if cc is None or not self.model.ready:
+            return
+        if t - self._forecast_t < self.cfg.forecast_max_age and self._forecast_t > self._constant_t:
+            return  # real forecasts are arriving
+        if t - self._constant_t < self.cfg.forecast_interval:
+            return
+        self._constant_t = t
+        self._forecast(t, math.radians(cc.set_deg), cc.drift, cc.sigma)
+        self._forecast_t = t
+        self._constant_t = t
+
+    def _on_water_speed(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+        z = v.get("stw_long")
+        if not _finite(z):
+            self.rejected["water_speed.incomplete"] += 1
+            return
+        self._dvl = (t, z)
+        m = self.model
+        if self._turning(t):
+            self.rejected["water_speed.turning"] += 1
+            return
+        if isinstance(m, PaperModel):
+            nis, used = m.dvl(z, DVL_GATE)
+        else:
+            est = m.estimate(t, self._fresh_heading(t)) if m.ready else None
+            if est is None or est["stw"] < self.cfg.min_speed:
+                self.rejected["water_speed.slow"] += 1
+                return
+            if est["stw_std"] > DVL_FIT_MAX_STD:
+                # Against an STW that is not known yet, a fit says nothing.
+                self.rejected["water_speed.unconverged"] += 1
+                return
+            nis, used = m.dvl(t, z, self._fresh_heading(t))
+        if nis is None:
+            return
+        if used:
+            self.monitor.update("water_speed", nis, 1)
+        else:
+            self.monitor.gated("water_speed")
+            self.rejected["water_speed.gate"] += 1
+
+    # ----------------------------------------------------------------- helpers
+    def _fresh_heading(self, t: float) -> float | None:
+        h = self._heading
+        if h is None or t - h[0] > HEADING_MAX_AGE:
+            return None
+        return h[1]
+
+    def _turning(self, t: float) -> bool:
+        r = self._rate
+        if r is None or t - r[0] > max(YAW_RATE_MAX_AGE, 2.0 if self._rate_from_rot else HEADING_MAX_AGE):
+            return False
+        return abs(r[1]) > math.radians(self.cfg.turn_rate_max_deg)
+
+    # ------------------------------------------------------------------ output
+    def tick(self, t: float) -> list[Estimate]:
+        m = self.model
+        if isinstance(m, PaperModel):
+            for nis in m.advance(t):
+                self.monitor.update("gnss", nis, 2)
+            values = m.estimate(t)
+        else:
+            self._flush_accel()
+            values = m.estimate(t, self._fresh_heading(t))
+        if values is None:
+            return []
+        dvl = self._dvl
+        values["dvl_stw"] = dvl[1] if dvl is not None and t - dvl[0] <= DVL_MAX_AGE else None
+        values.setdefault("dvl_bias", None)
+        values.setdefault("dvl_scale", None)
+        values.setdefault("dvl_std", None)
+        values["mode"] = self.cfg.mode
+        self._check_log(values)
+        return [Estimate("stw", "stw", t, values)]
+
+    def _check_log(self, v: dict[str, Any]) -> None:
+        """Warn (in health, and in the log once per change) when the log is off."""
+        warnings = []
+        std = v.get("dvl_std")
+        if std is not None:
+            b = v["dvl_bias"]
+            k = 0.0 if v["dvl_scale"] is None else v["dvl_scale"] - 1.0
+            if abs(b) - 1.96 * std["bias"] > self.cfg.dvl_tolerance:
+                warnings.append(
+                    f"Doppler log reads {abs(b):.2f} m/s {'high' if b > 0 else 'low'} "
+                    f"(±{std['bias']:.2f}, tolerance {self.cfg.dvl_tolerance:.2f})"
+                )
+            if v["dvl_scale"] is not None and abs(k) - 1.96 * std["scale"] > self.cfg.dvl_scale_tolerance:
+                warnings.append(
+                    f"Doppler log scale is {100 * k:+.1f} % (±{100 * std['scale']:.1f} %, "
+                    f"tolerance {100 * self.cfg.dvl_scale_tolerance:.1f} %)"
+                )
+        if [w.split()[2] for w in warnings] != [w.split()[2] for w in self._warnings]:
+            for w in warnings:
+                log.warning("stw: %s", w)
+        self._warnings = warnings
+
+    def health(self) -> dict[str, Any]:
+        out = self.monitor.snapshot()
+        seen = {k: self.seen.get(k, 0) for k in sorted(INPUTS)}
+        out["mode"] = self.cfg.mode
+        out["seen"] = seen
+        missing = {k: COSTS[k] for k in COSTS if not seen.get(k)}
+        if self.cfg.current is not None and "current" in missing:
+            missing["current"] = "no current forecast: the configured constant current stands in"
+        out["missing"] = missing
+        out["rejected"] = dict(sorted(self.rejected.items()))
+        out["warnings"] = list(self._warnings)
+        if isinstance(self.model, VectorModel):
+            out.update(self.model.health())
+            sigma = self.model.current_sigma()
+            out["current_sigma"] = None if sigma is None else round(sigma, 4)
+        return out
+
+
+def _finite(*xs: Any) -> bool:
+    return all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)

@@ -1,0 +1,53 @@
+"""Innovation (Mahalanobis) gates and the one Kalman update every filter here uses."""
+
+from __future__ import annotations
+
+import numpy as np
+from filterpy.kalman import update as kf_update
+
+
+def innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Residual y = z − Hx, its covariance S = HPHᵀ + R and the NIS yᵀS⁻¹y."""
+    y = z - H @ x
+    S = H @ P @ H.T + R
+    nis = float(y @ np.linalg.solve(S, y))
+    return y, S, nis
+
+
+def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """filterpy's linear update (Joseph form, so P stays symmetric positive)."""
+    return kf_update(x, P, z, R, H)
+
+
+def consider_update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray, free: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """An update that may change only the states in `free` (a boolean mask).
+
+    The Doppler log must never move the speed estimate, yet its own error states are
+    correlated with the current's error: the full gain is computed and its rows for the
+    other states set to zero. Each row of the optimal gain is optimal on its own, so
+    the free states get their best update; the Joseph form keeps P right for any gain.
+    """
+    S = H @ P @ H.T + R
+    K = np.linalg.solve(S.T, (P @ H.T).T).T
+    K[~free, :] = 0.0
+    x = x + K @ (z - H @ x)
+    I_KH = np.eye(x.size) - K @ H
+    P = I_KH @ P @ I_KH.T + K @ R @ K.T
+    return x, 0.5 * (P + P.T)
+
+
+def cap_variance(P: np.ndarray, idx: slice | list[int], var_max: float) -> np.ndarray:
+    """Scale rows and columns `idx` so that no variance there exceeds `var_max`.
+
+    D·P·D with D diagonal keeps P positive semi-definite and the correlations as they
+    were; used so that a state that nothing observes (the current without forecasts)
+    says "unknown, within physical bounds" instead of growing without limit.
+    """
+    d = np.ones(P.shape[0])
+    v = np.diag(P)[idx]
+    d[idx] = np.where(v > var_max, np.sqrt(var_max / np.maximum(v, 1e-300)), 1.0)
+    if np.all(d == 1.0):
+        return P
+    return P * np.outer(d, d)

@@ -1,0 +1,139 @@
+"""The vessel's motion over ground: a nearly-constant-acceleration Kalman filter.
+
+State (local plane, `plane.py`):  x = [p_n, p_e, v_n, v_e, a_n, a_e]
+Model, per axis (white jerk of spectral density q):
+    p(k+1) = p + T·v + ½T²·a      v(k+1) = v + T·a      a(k+1) = a + w_a
+    F = [[1, T, ½T²], [0, 1, T], [0, 0, 1]],  Q = q·[[T⁵/20, T⁴/8, T³/6], [T⁴/8, T³/3, T²/2], [T³/6, T²/2, T]]
+Measurements:
+    GNSS position   z = [p_n, p_e]                       R = σ_p²·I
+    GNSS velocity   z = SOG·[cos COG, sin COG] = [v_n, v_e]   R = σ_v²·I (noise on the vector,
+                    so that COG at low speed is not overweighted)
+    accelerometer   z = R(ψ)·[a_x, a_y] = [a_n, a_e]     R = σ_a²/n + (0.01 m/s²)²
+
+Seed 000 feeds the acceleration in as a control input; integrating a noisy 1 Hz
+accelerometer that way adds a velocity random walk (≈ 0.27 m/s over 30 s at σ 0.05
+m/s²). Here it is a *measured state* (ESTIMATORS.md §1): the accelerometer observes
+`a`, GNSS observes `p` and `v`, and without an IMU `a` is still seen through the
+velocity differences. The accelerometers' reading with gravity removed is the
+inertial acceleration in body axes (it contains the −v·r, +u·r terms, DESIGN §2), so
+rotating it by the heading gives the NED acceleration exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from filterpy.common import Q_continuous_white_noise
+from filterpy.kalman import predict as kf_predict
+
+from .gating import innovation, update
+
+P_N, P_E, V_N, V_E, A_N, A_E = range(6)
+POS, VEL, ACC = slice(0, 2), slice(2, 4), slice(4, 6)
+_H_POS = np.eye(6)[POS]
+_H_VEL = np.eye(6)[VEL]
+_H_ACC = np.eye(6)[ACC]
+
+
+def transition(T: float) -> np.ndarray:
+    """F for a step of T seconds, states ordered [p_n, p_e, v_n, v_e, a_n, a_e]."""
+    F = np.eye(6)
+    F[P_N, V_N] = F[P_E, V_E] = F[V_N, A_N] = F[V_E, A_E] = T
+    F[P_N, A_N] = F[P_E, A_E] = 0.5 * T * T
+    return F
+
+
+def process_noise(T: float, q: float) -> np.ndarray:
+    """Q of white jerk (filterpy's continuous white noise, order 3, two axes)."""
+    return Q_continuous_white_noise(dim=3, dt=T, spectral_density=q, block_size=2, order_by_dim=False)
+
+
+class GroundFilter:
+    """Position, velocity and acceleration over ground, predicted to each measurement."""
+
+    def __init__(self, t: float, v_n: float, v_e: float, sog_sigma: float, jerk_density: float, accel_sigma0: float = 0.1) -> None:
+        self.t = t
+        self.q = jerk_density
+        self.x = np.array([0.0, 0.0, v_n, v_e, 0.0, 0.0])
+        self.P = np.diag([1e4, 1e4, sog_sigma**2, sog_sigma**2, accel_sigma0**2, accel_sigma0**2])
+        self.have_position = False
+
+    def predict(self, t: float) -> None:
+        T = t - self.t
+        if T <= 0.0:
+            return
+        self.x, self.P = kf_predict(self.x, self.P, transition(T), process_noise(T, self.q))
+        self.t = t
+
+    def predicted(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """State and covariance at t, without changing the filter (published ticks)."""
+        T = t - self.t
+        if T <= 0.0:
+            return self.x, self.P
+        F = transition(T)
+        return F @ self.x, F @ self.P @ F.T + process_noise(T, self.q)
+
+    # Each `try_*` predicts to the measurement, gates it and updates; it returns the
+    # NIS and whether it was used.
+    def try_position(self, n: float, e: float, sigma: float, gate: float) -> tuple[float, bool]:
+        z = np.array([n, e])
+        R = np.eye(2) * sigma * sigma
+        if not self.have_position:
+            # The first fix places the plane's origin: take it as it is.
+            self.x[POS] = z
+            self.P[POS, :] = 0.0
+            self.P[:, POS] = 0.0
+            self.P[POS, POS] = R
+            self.have_position = True
+            return 0.0, True
+        _, _, nis = innovation(self.x, self.P, z, R, _H_POS)
+        if nis > gate:
+            return nis, False
+        self.x, self.P = update(self.x, self.P, z, R, _H_POS)
+        return nis, True
+
+    def try_velocity(self, v_n: float, v_e: float, sigma: float, gate: float) -> tuple[float, bool]:
+        z = np.array([v_n, v_e])
+        R = np.eye(2) * sigma * sigma
+        _, _, nis = innovation(self.x, self.P, z, R, _H_VEL)
+        if nis > gate:
+            return nis, False
+        self.x, self.P = update(self.x, self.P, z, R, _H_VEL)
+        return nis, True
+
+    def try_accel(self, a_n: float, a_e: float, var: float, gate: float) -> tuple[float, bool]:
+        z = np.array([a_n, a_e])
+        R = np.eye(2) * var
+        _, _, nis = innovation(self.x, self.P, z, R, _H_ACC)
+        if nis > gate:
+            return nis, False
+        self.x, self.P = update(self.x, self.P, z, R, _H_ACC)
+        return nis, True
+
+    def reset_position(self, n: float, e: float, sigma: float) -> None:
+        """Trust the GNSS again after a jump the gate kept rejecting (a new antenna,
+        a receiver that re-converged): the position restarts at the fix."""
+        self.x[POS] = (n, e)
+        self.P[POS, :] = 0.0
+        self.P[:, POS] = 0.0
+        self.P[POS, POS] = np.eye(2) * sigma * sigma
+
+    def reset_velocity(self, v_n: float, v_e: float, sigma: float) -> None:
+        self.x[VEL] = (v_n, v_e)
+        self.x[ACC] = 0.0
+        self.P[VEL, :] = 0.0
+        self.P[:, VEL] = 0.0
+        self.P[ACC, :] = 0.0
+        self.P[:, ACC] = 0.0
+        self.P[VEL, VEL] = np.eye(2) * sigma * sigma
+        self.P[ACC, ACC] = np.eye(2) * 0.01
+
+    def shift(self, dn: float, de: float) -> None:
+        """The plane moved its origin by (dn, de): positions follow."""
+        self.x[P_N] -= dn
+        self.x[P_E] -= de
+
+    @staticmethod
+    def speed(x: np.ndarray) -> float:
+        return math.hypot(x[V_N], x[V_E])

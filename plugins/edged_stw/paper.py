@@ -1,0 +1,204 @@
+"""Seed 000's four-state filter, exactly (`mode = "paper"`), with the log fit beside it.
+
+State x = [d, U_sog, U_stw, U_c]: distance travelled, speed over ground, speed through
+water, current along the track (+ following). On the paper's fixed sample time T
+(`paper_period`, 30 s), with the total acceleration A = |a| as input:
+    d(k+1)     = d(k) + T·U_sog(k) + ½T²·A(k)          (12)
+    U_sog(k+1) = U_sog(k) + T·A(k)                      (13)
+    U_stw(k+1) = U_sog(k) − U_c(k) + T·A(k)             (14)
+    U_c(k+1)   = U_c(k) + v_c                           (15)
+    F = [[1, T, 0, 0], [0, 1, 0, 0], [0, 1, 0, −1], [0, 0, 0, 1]],  G = [½T², T, T, 0]ᵀ,
+    G_w = [[½T², 0], [T, 0], [T, 0], [0, 1]],  Q = diag(σ_a², σ_c²)            (18)
+    z1 = [d, U_sog, U_c] when a forecast arrived, H1 = rows 1, 2, 4 of I;
+    z2 = [d, U_sog] otherwise, H2 = rows 1, 2 of I                           (16, 17, 19)
+    time update (20)–(21), measurement update (22)–(25), R from Table 1.
+The measured d is the sum of the distances between successive fixes taken on the
+grid; the forecast enters as the paper assumes it, along the track: its speed, signed
+by whether it follows or heads the vessel. The paper's |a| cannot decelerate
+(ESTIMATORS.md §1): this mode reproduces the paper, it is not the default.
+
+Two more states, [b, k], fit the Doppler log as dvl = (1 + k)·U_stw + b by a consider
+update that leaves the paper's four states as the paper has them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from filterpy.kalman import predict as kf_predict
+
+from .gating import consider_update, innovation, update
+
+D, U_SOG, U_STW, U_C, B, K = range(6)
+_FREE_DVL = np.array([False] * 4 + [True, True])
+_H1 = np.eye(6)[[D, U_SOG, U_C]]
+_H2 = np.eye(6)[[D, U_SOG]]
+_Q_B = 0.05**2 / 86_400.0
+_Q_K = 0.01**2 / 86_400.0
+
+
+def paper_matrices(T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """F, G and G_w of eq. (18), padded with the log's two constant states."""
+    F = np.eye(6)
+    F[D, U_SOG] = T
+    F[U_STW, U_STW] = 0.0
+    F[U_STW, U_SOG] = 1.0
+    F[U_STW, U_C] = -1.0
+    G = np.array([0.5 * T * T, T, T, 0.0, 0.0, 0.0])
+    Gw = np.zeros((6, 2))
+    Gw[D, 0], Gw[U_SOG, 0], Gw[U_STW, 0], Gw[U_C, 1] = 0.5 * T * T, T, T, 1.0
+    return F, G, Gw
+
+
+class PaperFilter:
+    """The paper's estimator on its own grid t0 + k·T."""
+
+    def __init__(self, t0: float, sog: float, T: float, sigma_a: float, sigma_c: float,
+                 sigma_d: float, sigma_sog: float, scale_prior: float) -> None:
+        self.t = t0
+        self.T = T
+        self.x = np.array([0.0, sog, sog, 0.0, 0.0, 0.0])
+        self.P = np.diag([sigma_d**2, sigma_sog**2, 1.0, 1.0, 1.0, scale_prior**2])
+        self.F, self.G, Gw = paper_matrices(T)
+        Q = np.diag([sigma_a**2, sigma_c**2])
+        self.GQG = Gw @ Q @ Gw.T
+        self.GQG[B, B] = _Q_B * T
+        self.GQG[K, K] = _Q_K * T
+        self.sigma_d = sigma_d
+        self.sigma_sog = sigma_sog
+
+    def next_time(self) -> float:
+        return self.t + self.T
+
+    def cycle(self, A: float, d: float, sog: float, u_c: float | None, var_c: float) -> float:
+        """One sample time: time update with input A, then H1 or H2. Returns the NIS."""
+        self.x, self.P = kf_predict(self.x, self.P, self.F, self.GQG, u=A, B=self.G)  # (20), (21)
+        self.t += self.T
+        if u_c is None:
+            z, H, R = np.array([d, sog]), _H2, np.diag([self.sigma_d**2, self.sigma_sog**2])
+        else:
+            z, H = np.array([d, sog, u_c]), _H1
+            R = np.diag([self.sigma_d**2, self.sigma_sog**2, var_c])
+        _, _, nis = innovation(self.x, self.P, z, R, H)
+        self.x, self.P = update(self.x, self.P, z, R, H)  # (22)–(25)
+        return nis
+
+    def dvl(self, z: float, var: float, gate: float) -> tuple[float, bool]:
+        H = np.zeros(6)
+        H[U_STW] = 1.0 + self.x[K]
+        H[B] = 1.0
+        H[K] = self.x[U_STW]
+        h = (1.0 + self.x[K]) * self.x[U_STW] + self.x[B]
+        nis = float((z - h) ** 2 / (H @ self.P @ H + var))
+        if not math.isfinite(nis) or nis > gate:
+            return nis, False
+        zl = np.array([z - h + H @ self.x])
+        self.x, self.P = consider_update(self.x, self.P, zl, np.array([[var]]), H[None, :], _FREE_DVL)
+        return nis, True
+
+
+class PaperModel:
+    """Feeds the paper's filter as the paper does: the latest samples at each T."""
+
+    def __init__(self, cfg) -> None:  # cfg: StwConfig (not imported: no cycle)
+        self.cfg = cfg
+        self.f: PaperFilter | None = None
+        self._fix: tuple[float, float, float] | None = None  # t, lat, lon
+        self._used_fix: tuple[float, float, float] | None = None
+        self._sog: tuple[float, float, float] | None = None  # t, sog, cog
+        self._used_sog_t = -math.inf
+        self._A = 0.0
+        self._u_c: float | None = None
+        self._d = 0.0
+        self.dvl_updates = 0
+        self.last_nis: float | None = None
+
+    @property
+    def ready(self) -> bool:
+        return self.f is not None
+
+    def advance(self, t: float) -> list[float]:
+        """Run every sample time up to t; the NIS of each update."""
+        out = []
+        f = self.f
+        while f is not None and f.next_time() <= t:
+            sog = self._sog
+            new_fix = self._fix is not None and (self._used_fix is None or self._fix[0] > self._used_fix[0])
+            if sog is None or (sog[0] <= self._used_sog_t and not new_fix):
+                # Nothing new from the GNSS: the time update (20)-(21) alone.
+                f.x, f.P = kf_predict(f.x, f.P, f.F, f.GQG, u=self._A, B=f.G)
+                f.t += f.T
+                continue
+            self._used_sog_t = sog[0]
+            d = self._distance()
+            if d is not None:
+                self._d = d
+            nis = f.cycle(self._A, self._d, sog[1], self._u_c, self.cfg.forecast_sigma**2)
+            out.append(nis)
+            self.last_nis = nis
+            self._u_c = None
+        return out
+
+    def _distance(self) -> float | None:
+        fix, used = self._fix, self._used_fix
+        if fix is None or (used is not None and fix[0] <= used[0]):
+            return None
+        self._used_fix = fix
+        if used is None:
+            return self._d
+        return self._d + _haversine(used[1], used[2], fix[1], fix[2])
+
+    def position(self, t: float, lat: float, lon: float) -> None:
+        self._fix = (t, lat, lon)
+
+    def velocity(self, t: float, sog: float, cog: float) -> None:
+        self._sog = (t, sog, cog)
+        if self.f is None:
+            c = self.cfg
+            self.f = PaperFilter(t, sog, c.paper_period, c.accel_sigma, c.paper_sigma_c,
+                                 c.position_sigma, c.sog_sigma, c.dvl_scale_prior)
+            self._used_sog_t = t
+
+    def accel(self, ax: float, ay: float) -> None:
+        self._A = math.hypot(ax, ay)  # the paper's total acceleration |a|
+
+    def forecast(self, set_rad: float, drift: float) -> None:
+        cog = self._sog[2] if self._sog is not None else set_rad
+        self._u_c = drift if math.cos(set_rad - cog) >= 0.0 else -drift
+
+    def dvl(self, z: float, gate: float) -> tuple[float | None, bool]:
+        if self.f is None:
+            return None, False
+        nis, used = self.f.dvl(z, self.cfg.dvl_sigma**2, gate)
+        self.dvl_updates += used
+        return nis, used
+
+    def estimate(self, t: float) -> dict | None:
+        f = self.f
+        if f is None:
+            return None
+        x, P = f.x, f.P
+        out = {
+            "stw": float(x[U_STW]),
+            "stw_std": math.sqrt(max(P[U_STW, U_STW], 0.0)),
+            "sog": float(x[U_SOG]),
+            "current": abs(float(x[U_C])),
+            "distance": float(x[D]),
+            "stw_long": None,
+            "stw_trans": None,
+            "current_set": None,
+            "current_along": float(x[U_C]),
+        }
+        if self.dvl_updates:
+            out["dvl_bias"] = float(x[B])
+            out["dvl_scale"] = 1.0 + float(x[K])
+            out["dvl_std"] = {"bias": math.sqrt(max(P[B, B], 0.0)), "scale": math.sqrt(max(P[K, K], 0.0))}
+        return out
+
+
+def _haversine(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    p1, p2 = math.radians(lat1), math.radians(lat2)
+    dp, dl = p2 - p1, math.radians(lon2 - lon1)
+    h = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
+    return 2.0 * 6371008.8 * math.asin(min(1.0, math.sqrt(h)))

@@ -1,0 +1,38 @@
+"""A local tangent plane (north, east in metres) that follows the vessel.
+
+Flat-earth coordinates are exact enough within a few kilometres of their origin; a
+voyage leaves any fixed origin behind (100 km north at 45° changes the east scale by
+1.2 %, i.e. 0.1 m/s of false velocity at 15 kn). So the filter re-anchors the plane at
+its own position whenever it has moved `radius` away, shifting the position states by
+the same amount: velocities and covariances are untouched.
+"""
+
+from __future__ import annotations
+
+import math
+
+A_WGS84 = 6378137.0
+E2_WGS84 = 6.69437999014e-3
+
+
+class LocalPlane:
+    """North/east metres about (lat0, lon0), with the WGS-84 radii of curvature there."""
+
+    __slots__ = ("lat0", "lon0", "_m", "_n")
+
+    def __init__(self, lat0: float, lon0: float) -> None:
+        self.lat0 = lat0
+        self.lon0 = lon0
+        s = math.sin(math.radians(lat0))
+        w = 1.0 - E2_WGS84 * s * s
+        self._m = A_WGS84 * (1.0 - E2_WGS84) / w**1.5  # meridian radius
+        self._n = A_WGS84 / math.sqrt(w) * math.cos(math.radians(lat0))  # parallel radius
+
+    def to_ne(self, lat: float, lon: float) -> tuple[float, float]:
+        dlon = (lon - self.lon0 + 180.0) % 360.0 - 180.0
+        return math.radians(lat - self.lat0) * self._m, math.radians(dlon) * self._n
+
+    def to_geodetic(self, north: float, east: float) -> tuple[float, float]:
+        lat = self.lat0 + math.degrees(north / self._m)
+        lon = self.lon0 + math.degrees(east / self._n) if self._n > 1e-6 else self.lon0
+        return lat, (lon + 180.0) % 360.0 - 180.0
