@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import hashlib
 import heapq
 import math
 import os
@@ -49,10 +50,11 @@ import statistics
 import sys
 import time
 from collections.abc import Callable, Iterator
-from itertools import count
 from operator import attrgetter
+from pathlib import Path
 from typing import Any
 
+import edged_stw
 from edged.records import ANGLE_MAX, Estimate, Measurement, validate_measurement
 from edged_stw.config import StwConfig
 from edged_stw.core import StwCore
@@ -295,11 +297,15 @@ def main() -> None:
     p.add_argument("--seconds", type=float, default=300.0, help="seconds of data per steps/s pass (default 300)")
     p.add_argument("--runs", type=int, default=3, help="passes per mix, best / median (default 3)")
     p.add_argument("--hours", type=float, default=24.0, help="hours of data in part 2 (default 24, 0 skips)")
+    p.add_argument("--every", type=int, default=2, help="a progress line every this many hours of data (default 2)")
     p.add_argument("--block", type=float, default=60.0, help="seconds of data generated at a time (default 60)")
     args = p.parse_args()
 
     rate = sum(hz for hz in (10, 10, 10, 10, 50, 50, 1)) + 1.0 / FORECAST_PERIOD
-    print(f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, pid {os.getpid()}, seed {SEED}")
+    src = sorted(Path(edged_stw.__file__).parent.glob("*.py"))
+    digest = hashlib.sha256(b"".join(f.read_bytes() for f in src)).hexdigest()[:12]
+    print(f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, pid {os.getpid()}, seed {SEED}; "
+          f"edged_stw sources sha256 {digest}")
     print(f"reference suite (DESIGN §9 without draft marks): {rate:.3f} measurements per s of data; "
           f"truth: STW {STW} m/s on {math.degrees(HEADING):.0f}°, current {CURRENT_DRIFT} m/s toward "
           f"{math.degrees(CURRENT_SET):.0f}°, SOG {SOG:.3f} m/s on {math.degrees(COG):.1f}°, log {DVL_BIAS} m/s high")
@@ -354,8 +360,12 @@ def main() -> None:
         cpu += feed.run(block)
         if block[-1].t - T0 >= (hour + 1) * 3600.0:
             hour += 1
-            if hour % 6 == 0:
-                print(f"    {hour:2d} h of data: {cpu:7.1f} s CPU so far, peak RSS {_rss_mib():.0f} MiB", flush=True)
+            if hour % args.every == 0:
+                v = feed.last.values if feed.last is not None else {}
+                print(f"    {hour:2d} h of data: {cpu:7.1f} s CPU so far, peak RSS {_rss_mib():.0f} MiB; "
+                      f"stw {v.get('stw', math.nan):.3f} ± {v.get('stw_std', math.nan):.3f}, current "
+                      f"{v.get('current', math.nan):.3f} toward {math.degrees(v.get('current_set') or 0.0):.0f}°, "
+                      f"resets {feed.core.monitor.snapshot().get('resets')}", flush=True)
     wall = time.perf_counter() - wall0 - gen
     print(f"stw {args.hours:g} h reference suite: {cpu:.1f} s CPU (real-time factor {seconds / cpu:,.0f}); "
           f"wall {wall:.1f} s without the stream's generation ({gen:.1f} s) (RTF {seconds / wall:,.0f} per wall s); "
