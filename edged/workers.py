@@ -104,10 +104,13 @@ class LoopRunner:
         return results
 
     def report(self) -> dict[str, Any] | None:
-        return core_health(self.core)
+        return core_health(self.core) if self.core is not None else self.health_report
 
     async def stop(self) -> None:
-        """Forget the core: the next start() makes a fresh one."""
+        """Forget the core: the next start() makes a fresh one. Its last health is kept,
+        so the final snapshot (after a replay) describes the whole run."""
+        if self.core is not None:
+            self.health_report = core_health(self.core)
         self.core = None
 
 

@@ -40,7 +40,12 @@ class StwConfig(EstimatorConfig):
     sog_sigma: float = Field(0.065, gt=0.0, le=10.0)
     accel_sigma: float = Field(0.05, gt=0.0, le=10.0)
     forecast_sigma: float = Field(0.2, gt=0.0, le=10.0)
+    #: White error of the (smoothed) heading, and its persistent misalignment
+    #: (compass deviation, mounting), degrees.
     heading_sigma_deg: float = Field(0.5, gt=0.0, le=30.0)
+    heading_bias_deg: float = Field(0.5, ge=0.0, le=30.0)
+    #: Seconds over which the heading is averaged for heading − course (heading.py).
+    heading_average: float = Field(10.0, gt=0.0, le=600.0)
     dvl_sigma: float = Field(0.1, gt=0.0, le=10.0)
 
     # Vessel motion (vector mode).
@@ -58,14 +63,16 @@ class StwConfig(EstimatorConfig):
     #: Below this speed over ground (m/s) heading − course is not used either.
     min_speed: float = Field(1.0, ge=0.0, le=20.0)
 
-    # Current (vector mode): two hypotheses mixed by how well each predicts the
-    # forecasts (interacting multiple models): a steady current and a turning/trending one.
-    #: Random walk of a steady current, m²/s³ (≈ 0.06 m/s in an hour).
+    # Current (vector mode): three hypotheses mixed by how well each predicts the
+    # forecasts and heading − course (interacting multiple models, current.py).
+    #: Random walk of a steady current, m²/s³ (≈ 0.006 m/s in an hour).
     current_steady_q: float = Field(1e-8, gt=0.0, le=1.0)
-    #: Random walk of the current's rate of change, m²/s⁵ (trending current).
-    current_trend_q: float = Field(1e-12, gt=0.0, le=1.0)
-    #: 1-σ of the current's rate of change before any forecast, m/s².
-    current_rate_sigma: float = Field(2e-4, gt=0.0, le=1.0)
+    #: Random walk of the rate of change of a slowly drifting current, m²/s⁵.
+    current_slow_q: float = Field(1e-13, gt=0.0, le=1.0)
+    #: The same for a current that turns within the hour (a rotary tidal stream).
+    current_fast_q: float = Field(3e-12, gt=0.0, le=1.0)
+    #: 1-σ of the current's rate of change before any forecast, m/s² (0.36 m/s per hour).
+    current_rate_sigma: float = Field(1e-4, gt=0.0, le=1.0)
     #: Probability that the current switches hypothesis between two forecasts.
     current_switch: float = Field(0.03, gt=0.0, lt=0.5)
     #: 1-σ of the current before any forecast, m/s (no forecast: no current assumed,
@@ -73,6 +80,11 @@ class StwConfig(EstimatorConfig):
     current_prior_sigma: float = Field(1.0, gt=0.0, le=10.0)
     #: The current's 1-σ never grows beyond this, m/s (no ocean current is unbounded).
     current_sigma_max: float = Field(2.0, gt=0.0, le=20.0)
+
+    #: Forecasts whose innovations adapt the current's process noise (0: no adaptation)
+    #: and the largest factor the adaptation may apply.
+    forecast_adapt_window: int = Field(4, ge=0, le=100)
+    forecast_adapt_limit: float = Field(100.0, ge=1.0, le=1e6)
 
     # Forecasts.
     #: Forecast errors stay correlated this long (s): forecasts arriving more often

@@ -18,6 +18,7 @@ from edged.innovation import InnovationMonitor
 from edged.records import Estimate, Measurement
 
 from .config import StwConfig
+from .heading import HeadingTrack
 from .paper import PaperModel
 from .vector import DVL_GATE, VectorModel
 
@@ -35,6 +36,7 @@ COSTS: dict[str, str] = {
     "current": "no current forecast: the current is unknown (σ grows to current_sigma_max), "
                "so STW is SOG with that uncertainty",
     "water_speed": "no Doppler/EM log: dvl_stw, dvl_bias and dvl_scale are null",
+    "yaw_rate": "no rate-of-turn sensor: turns are found from the heading's changes, a few seconds late",
 }
 #: Inputs of each kind older than this (s) are not used as "the latest".
 HEADING_MAX_AGE = 30.0
@@ -53,9 +55,8 @@ class StwCore:
         self.monitor = InnovationMonitor(window=100)
         self.seen: Counter[str] = Counter()
         self.rejected: Counter[str] = Counter()
-        self._heading: tuple[float, float] | None = None  # t, rad
-        self._rate: tuple[float, float] | None = None  # t, rad/s (from ROT or heading differences)
-        self._rate_from_rot = False
+        self.heading = HeadingTrack(cfg.heading_average)
+        self._rot: tuple[float, float] | None = None  # t, rad/s from a rate-of-turn sensor
         self._accel: list[float] | None = None  # [t_first, t_last, sum_n, sum_e, n]
         self._dvl: tuple[float, float] | None = None  # t, stw_long
         self._last_forecast: tuple[str, float, float, float | None] | None = None
@@ -64,6 +65,7 @@ class StwCore:
         self._gated_in_row: Counter[str] = Counter()
         self._warnings: list[str] = []
         self._pending_forecast: tuple[float, float, float] | None = None
+        self._forecast_nis: list[float] = []
 
     # ------------------------------------------------------------------ inputs
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
@@ -72,8 +74,6 @@ class StwCore:
             return []
         t = rec.t
         v = rec.values
-        if kind != "accel_body":
-            self._flush_accel()
         if isinstance(self.model, PaperModel):
             for nis in self.model.advance(t):
                 self.monitor.update("gnss", nis, 2)
@@ -120,9 +120,14 @@ class StwCore:
         if used:
             heading = self._fresh_heading(t)
             if heading is not None and not self._turning(t):
-                nis = m.cross(t, heading)
-                if nis is not None:
-                    self.monitor.update("heading_course", nis, 1)
+                res = m.cross(t, heading)
+                if res is not None:
+                    nis, used = res
+                    if used:
+                        self.monitor.update("heading_course", nis, 1)
+                    else:
+                        self.monitor.gated("heading_course")
+                        self.rejected["heading_course.gate"] += 1
 
     def _gate_result(self, kind: str, nis: float | None, used: bool, reset: Any, what: str) -> None:
         if used:
@@ -143,21 +148,12 @@ class StwCore:
         if not _finite(h):
             self.rejected["heading.incomplete"] += 1
             return
-        prev = self._heading
-        if prev is not None and not self._rate_from_rot and t - prev[0] >= 0.5:
-            d = (h - prev[1] + math.pi) % (2.0 * math.pi) - math.pi
-            self._rate = (t, d / (t - prev[0]))
-        if prev is None or t - prev[0] >= 0.5 or self._rate_from_rot:
-            self._heading = (t, h)
-        else:
-            self._heading = (prev[0], prev[1]) if t - prev[0] < 0.5 and self._rate is not None else (t, h)
-        self._heading = (t, h) if prev is None or self._rate_from_rot or t - prev[0] >= 0.5 else self._heading
+        self.heading.add(t, h)
 
     def _on_yaw_rate(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
         r = v.get("r")
         if _finite(r):
-            self._rate = (t, r)
-            self._rate_from_rot = True
+            self._rot = (t, r)
 
     def _on_accel_body(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
         ax, ay = v.get("ax"), v.get("ay")
@@ -250,6 +246,10 @@ class StwCore:
         self._gated_in_row["current"] = 0
         self.monitor.update("current", nis, 2)
         m.forecast(t, c_n, c_e, var)
+        self._forecast_nis.append(nis)
+        del self._forecast_nis[: -self.cfg.forecast_adapt_window]
+        if self.cfg.forecast_adapt_window and m.current is not None:
+            m.current.adapt(self._forecast_nis, self.cfg.forecast_adapt_limit)
         self._forecast_t = t
 
     def _constant_current(self, t: float) -> None:
@@ -297,16 +297,20 @@ class StwCore:
 
     # ----------------------------------------------------------------- helpers
     def _fresh_heading(self, t: float) -> float | None:
-        h = self._heading
-        if h is None or t - h[0] > HEADING_MAX_AGE:
+        """The smoothed heading, when the gyro is still talking."""
+        if not self.heading.fresh(t, HEADING_MAX_AGE):
             return None
-        return h[1]
+        return self.heading.smoothed()
 
     def _turning(self, t: float) -> bool:
-        r = self._rate
-        if r is None or t - r[0] > max(YAW_RATE_MAX_AGE, 2.0 if self._rate_from_rot else HEADING_MAX_AGE):
+        rot = self._rot
+        if rot is not None and t - rot[0] <= YAW_RATE_MAX_AGE:
+            r = rot[1]
+        elif self.heading.rate is not None and t - self.heading.rate[0] <= HEADING_MAX_AGE:
+            r = self.heading.rate[1]
+        else:
             return False
-        return abs(r[1]) > math.radians(self.cfg.turn_rate_max_deg)
+        return abs(r) > math.radians(self.cfg.turn_rate_max_deg) or not self.heading.settled()
 
     # ------------------------------------------------------------------ output
     def tick(self, t: float) -> list[Estimate]:
@@ -330,23 +334,30 @@ class StwCore:
         return [Estimate("stw", "stw", t, values)]
 
     def _check_log(self, v: dict[str, Any]) -> None:
-        """Warn (in health, and in the log once per change) when the log is off."""
-        warnings = []
+        """Warn (in health, and in the log once per change) when the log is off: when
+        its offset (or scale) exceeds the tolerance with 95 % confidence; the warning
+        clears only below 80 % of the tolerance, so that a value near it does not
+        make the warning come and go."""
         std = v.get("dvl_std")
+        warnings: list[str] = []
         if std is not None:
             b = v["dvl_bias"]
-            k = 0.0 if v["dvl_scale"] is None else v["dvl_scale"] - 1.0
-            if abs(b) - 1.96 * std["bias"] > self.cfg.dvl_tolerance:
+            was = {w.split()[2] for w in self._warnings}
+            keep = 0.8 if "reads" in was else 1.0
+            if abs(b) - 1.96 * std["bias"] > keep * self.cfg.dvl_tolerance:
                 warnings.append(
                     f"Doppler log reads {abs(b):.2f} m/s {'high' if b > 0 else 'low'} "
                     f"(±{std['bias']:.2f}, tolerance {self.cfg.dvl_tolerance:.2f})"
                 )
-            if v["dvl_scale"] is not None and abs(k) - 1.96 * std["scale"] > self.cfg.dvl_scale_tolerance:
-                warnings.append(
-                    f"Doppler log scale is {100 * k:+.1f} % (±{100 * std['scale']:.1f} %, "
-                    f"tolerance {100 * self.cfg.dvl_scale_tolerance:.1f} %)"
-                )
-        if [w.split()[2] for w in warnings] != [w.split()[2] for w in self._warnings]:
+            if v["dvl_scale"] is not None and std["scale"] is not None:
+                k = v["dvl_scale"] - 1.0
+                keep = 0.8 if "scale" in was else 1.0
+                if abs(k) - 1.96 * std["scale"] > keep * self.cfg.dvl_scale_tolerance:
+                    warnings.append(
+                        f"Doppler log scale is {100 * k:+.1f} % (±{100 * std['scale']:.1f} %, "
+                        f"tolerance {100 * self.cfg.dvl_scale_tolerance:.1f} %)"
+                    )
+        if {w.split()[2] for w in warnings} != {w.split()[2] for w in self._warnings}:
             for w in warnings:
                 log.warning("stw: %s", w)
         self._warnings = warnings
@@ -366,6 +377,8 @@ class StwCore:
             out.update(self.model.health())
             sigma = self.model.current_sigma()
             out["current_sigma"] = None if sigma is None else round(sigma, 4)
+            if self.model.current is not None:
+                out["current_q_scale"] = round(self.model.current.q_scale, 3)
         return out
 
 

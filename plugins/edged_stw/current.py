@@ -1,18 +1,20 @@
-"""The sea current, the sway through the water and the log's error: an IMM filter.
+"""The sea current and the sway through the water: an IMM filter of three hypotheses.
 
 State (local plane, north/east):
     y = [c_n, c_e, ċ_n, ċ_e, s]
     c: current (velocity of the water over ground), ċ: its rate of change, s: sway of
     the hull through the water (leeway).
 
-Two hypotheses about the current (ESTIMATORS.md §1: no single random-walk σ_c suits
-both a steady following current and a rotating cross current), mixed by how well each
-predicts what is seen (interacting multiple models, Blom & Bar-Shalom 1988):
-    steady:  c(k+1) = c + w_c,          Q_c = q_s·T·I,   ċ ≡ 0
-    trend:   c(k+1) = c + T·ċ,  ċ(k+1) = ċ + w_ċ,   Q = q_t·[[T³/3, T²/2], [T²/2, T]] per axis
-The mode probabilities move with the forecast and heading-course likelihoods; mixing
-(with switch probability `p`) happens at each forecast, the only moment the along-track
-current is observed.
+No single random-walk σ_c suits both a steady following current and a rotating cross
+current (ESTIMATORS.md §1), so three hypotheses run side by side and are mixed by how
+well each predicts what is seen (interacting multiple models, Blom & Bar-Shalom 1988):
+    steady:   c(k+1) = c + w_c,        Q_c = q_s·T·I,    ċ ≡ 0
+    drifting: c(k+1) = c + T·ċ,  ċ(k+1) = ċ + w_ċ,   Q = q·[[T³/3, T²/2], [T²/2, T]] per axis,
+              with q = q_slow (a current that changes over many hours)
+    turning:  the same with q = q_fast (a tidal stream that turns within the hour)
+Mixing (each hypothesis switching to another with probability `switch`) happens at each
+forecast, the only moment the along-track current is observed; the mode probabilities
+move with the forecast and the heading-course likelihoods.
     s(k+1) = φ·s + w_s,  φ = exp(−T/τ_s),  Q_s = σ_s²(1 − φ²)   (leeway persists for τ_s)
 
 Measurements:
@@ -33,15 +35,14 @@ from .gating import cap_variance, innovation, update
 
 C, RATE, S = slice(0, 2), slice(2, 4), 4
 N_STATE = 5
-STEADY, TREND = 0, 1
-MODES = ("steady", "trend")
 _H_FORECAST = np.eye(N_STATE)[C]
 
 
 @dataclass(frozen=True)
 class CurrentParams:
     q_steady: float
-    q_trend: float
+    q_slow: float
+    q_fast: float
     rate_sigma: float
     switch: float
     prior_sigma: float
@@ -49,51 +50,64 @@ class CurrentParams:
     leeway_sigma: float
     leeway_time: float
 
+    def modes(self) -> tuple[tuple[str, float | None], ...]:
+        """(name, q of the rate) per hypothesis; None: no rate (steady)."""
+        return (("steady", None), ("drifting", self.q_slow), ("turning", self.q_fast))
+
 
 class CurrentFilter:
-    """Two Kalman filters on the same state, one per current hypothesis."""
+    """One Kalman filter per current hypothesis, on the same state."""
 
     def __init__(self, t: float, p: CurrentParams) -> None:
         self.t = t
         self.p = p
-        y = np.zeros(N_STATE)
+        self.modes = p.modes()
+        n = len(self.modes)
         P = np.diag([p.prior_sigma**2] * 2 + [p.rate_sigma**2] * 2 + [p.leeway_sigma**2])
-        self.y = [y.copy(), y.copy()]
-        self.P = [self._pin(P.copy()), P.copy()]
-        self.mu = np.array([0.5, 0.5])
-        self.Pi = np.array([[1.0 - p.switch, p.switch], [p.switch, 1.0 - p.switch]])
+        self.y = [np.zeros(N_STATE) for _ in range(n)]
+        self.P = [self._pin(P.copy()) if q is None else P.copy() for _, q in self.modes]
+        self.mu = np.full(n, 1.0 / n)
+        #: Scale of every hypothesis' process noise, adapted from the forecast
+        #: innovations (`adapt`): 1 while forecasts land where predicted.
+        self.q_scale = 1.0
+        #: Stationary 1-σ of the sway state (leeway and compass misalignment; the
+        #: vector model sets it from the speed).
+        self.sway_sigma = p.leeway_sigma
+        self.Pi = np.full((n, n), p.switch / (n - 1))
+        np.fill_diagonal(self.Pi, 1.0 - p.switch)
 
     @staticmethod
     def _pin(P: np.ndarray) -> np.ndarray:
-        """The steady model has no rate of change: its rate states are exactly 0."""
+        """The steady hypothesis has no rate of change: its rate states are exactly 0."""
         P[RATE, :] = 0.0
         P[:, RATE] = 0.0
         return P
 
-    def _transition(self, T: float, mode: int) -> tuple[np.ndarray, np.ndarray]:
+    def _transition(self, T: float, q_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
         p = self.p
         F = np.eye(N_STATE)
         Q = np.zeros((N_STATE, N_STATE))
-        if mode == TREND:
+        if q_rate is not None:
+            q = q_rate * self.q_scale
             F[0, 2] = F[1, 3] = T
             for i, j in ((0, 2), (1, 3)):
-                Q[i, i] = p.q_trend * T**3 / 3.0
-                Q[i, j] = Q[j, i] = p.q_trend * T * T / 2.0
-                Q[j, j] = p.q_trend * T
+                Q[i, i] = q * T**3 / 3.0
+                Q[i, j] = Q[j, i] = q * T * T / 2.0
+                Q[j, j] = q * T
         else:
             F[2, 2] = F[3, 3] = 0.0
-            Q[0, 0] = Q[1, 1] = p.q_steady * T
+            Q[0, 0] = Q[1, 1] = p.q_steady * self.q_scale * T
         phi = math.exp(-T / p.leeway_time)
         F[S, S] = phi
-        Q[S, S] = p.leeway_sigma**2 * (1.0 - phi * phi)
+        Q[S, S] = self.sway_sigma**2 * (1.0 - phi * phi)
         return F, Q
 
-    def _predict_one(self, y: np.ndarray, P: np.ndarray, T: float, mode: int) -> tuple[np.ndarray, np.ndarray]:
-        F, Q = self._transition(T, mode)
+    def _predict_one(self, y: np.ndarray, P: np.ndarray, T: float, q_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
+        F, Q = self._transition(T, q_rate)
         y = F @ y
         P = F @ P @ F.T + Q
         P = cap_variance(P, C, self.p.sigma_max**2)
-        if mode == TREND:
+        if q_rate is not None:
             P = cap_variance(P, RATE, (5.0 * self.p.rate_sigma) ** 2)
         return y, P
 
@@ -101,36 +115,37 @@ class CurrentFilter:
         T = t - self.t
         if T <= 0.0:
             return
-        for m in (STEADY, TREND):
-            self.y[m], self.P[m] = self._predict_one(self.y[m], self.P[m], T, m)
+        for m, (_, q) in enumerate(self.modes):
+            self.y[m], self.P[m] = self._predict_one(self.y[m], self.P[m], T, q)
         self.t = t
 
     def mixture(self, t: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The combined estimate (mean and covariance, spread of the modes included),
-        predicted to t when given without changing the filter."""
+        """The combined estimate (mean and covariance, spread of the hypotheses
+        included), predicted to t when given without changing the filter."""
         ys, Ps = self.y, self.P
         if t is not None and t > self.t:
-            pairs = [self._predict_one(self.y[m], self.P[m], t - self.t, m) for m in (STEADY, TREND)]
+            pairs = [self._predict_one(self.y[m], self.P[m], t - self.t, q) for m, (_, q) in enumerate(self.modes)]
             ys, Ps = [a for a, _ in pairs], [b for _, b in pairs]
-        y = self.mu[0] * ys[0] + self.mu[1] * ys[1]
+        y = sum(self.mu[m] * ys[m] for m in range(len(ys)))
         P = np.zeros((N_STATE, N_STATE))
-        for m in (STEADY, TREND):
+        for m in range(len(ys)):
             d = ys[m] - y
             P += self.mu[m] * (Ps[m] + np.outer(d, d))
         return y, P
 
     def _mix(self) -> None:
-        """IMM interaction: each model starts from the others' estimates, weighted."""
+        """IMM interaction: each hypothesis starts from the others' estimates, weighted."""
+        n = len(self.modes)
         c = self.Pi.T @ self.mu
         w = (self.Pi * self.mu[:, None]) / c[None, :]
         ys, Ps = [], []
-        for j in (STEADY, TREND):
-            y0 = w[0, j] * self.y[0] + w[1, j] * self.y[1]
+        for j, (_, q) in enumerate(self.modes):
+            y0 = sum(w[i, j] * self.y[i] for i in range(n))
             P0 = np.zeros((N_STATE, N_STATE))
-            for i in (STEADY, TREND):
+            for i in range(n):
                 d = self.y[i] - y0
                 P0 += w[i, j] * (self.P[i] + np.outer(d, d))
-            if j == STEADY:
+            if q is None:
                 y0[RATE] = 0.0
                 P0 = self._pin(P0)
             ys.append(y0)
@@ -138,21 +153,19 @@ class CurrentFilter:
         self.y, self.P = ys, Ps
         self.mu = c
 
-    def _update_modes(self, z: np.ndarray, R: np.ndarray, H_of: list[np.ndarray]) -> None:
-        like = np.zeros(2)
-        for m in (STEADY, TREND):
-            H = H_of[m]
-            y, S, nis = innovation(self.y[m], self.P[m], z, R, H)
+    def _update_modes(self, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> None:
+        like = np.zeros(len(self.modes))
+        for m, (_, q) in enumerate(self.modes):
+            _, S, nis = innovation(self.y[m], self.P[m], z, R, H)
             like[m] = math.exp(-0.5 * min(nis, 200.0)) / math.sqrt(max(np.linalg.det(S), 1e-300))
             self.y[m], self.P[m] = update(self.y[m], self.P[m], z, R, H)
-            if m == STEADY:
+            if q is None:
                 self.y[m][RATE] = 0.0
                 self.P[m] = self._pin(self.P[m])
         total = float(self.mu @ like)
         if total > 0.0 and math.isfinite(total):
-            self.mu = self.mu * like / total
-            self.mu = np.clip(self.mu, 1e-6, 1.0)
-            self.mu /= self.mu.sum()
+            mu = np.clip(self.mu * like / total, 1e-6, 1.0)
+            self.mu = mu / mu.sum()
 
     def forecast_nis(self, t: float, c_n: float, c_e: float, var: float) -> float:
         """NIS of a forecast against the combined estimate at t (the gate's test)."""
@@ -163,17 +176,24 @@ class CurrentFilter:
     def forecast(self, t: float, c_n: float, c_e: float, var: float) -> None:
         self.predict(t)
         self._mix()
-        self._update_modes(np.array([c_n, c_e]), np.eye(2) * var, [_H_FORECAST, _H_FORECAST])
+        self._update_modes(np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
+
+    def adapt(self, nis_history: list[float], limit: float) -> None:
+        """Covariance matching on the forecasts: a forecast's NIS has mean 2 (2 dof)
+        when the filter's current is as uncertain as it says. Recent forecasts landing
+        further off mean the current changes faster than every hypothesis allows: all
+        process noises are scaled by mean(NIS)/2, within [1, limit]."""
+        if nis_history:
+            self.q_scale = float(min(max(sum(nis_history) / len(nis_history) / 2.0, 1.0), limit))
 
     def inflate(self, sigma: float) -> None:
         """Forget what was known of the current (forecasts kept contradicting it)."""
-        for m in (STEADY, TREND):
-            P = self.P[m]
+        for P in self.P:
             P[C, :] = 0.0
             P[:, C] = 0.0
             P[C, C] = np.eye(2) * sigma * sigma
 
-    def cross(self, t: float, z: float, starboard: np.ndarray, var: float) -> float:
+    def cross(self, t: float, z: float, starboard: np.ndarray, var: float, gate: float) -> tuple[float, bool]:
         """Heading vs course: the ground velocity across the ship is current + sway."""
         self.predict(t)
         H = np.zeros((1, N_STATE))
@@ -181,5 +201,10 @@ class CurrentFilter:
         H[0, S] = 1.0
         y, P = self.mixture()
         _, _, nis = innovation(y, P, np.array([z]), np.array([[var]]), H)
-        self._update_modes(np.array([z]), np.array([[var]]), [H, H])
-        return nis
+        if nis > gate:
+            return nis, False
+        self._update_modes(np.array([z]), np.array([[var]]), H)
+        return nis, True
+
+    def mode_probabilities(self) -> dict[str, float]:
+        return {name: float(p) for (name, _), p in zip(self.modes, self.mu)}

@@ -64,7 +64,7 @@ class PaperFilter:
         Q = np.diag([sigma_a**2, sigma_c**2])
         self.GQG = Gw @ Q @ Gw.T
         self.GQG[B, B] = _Q_B * T
-        self.GQG[K, K] = _Q_K * T
+        self.GQG[K, K] = _Q_K * T if scale_prior > 0.0 else 0.0  # no scale fit: k stays 0
         self.sigma_d = sigma_d
         self.sigma_sog = sigma_sog
 
@@ -157,7 +157,7 @@ class PaperModel:
         if self.f is None:
             c = self.cfg
             self.f = PaperFilter(t, sog, c.paper_period, c.accel_sigma, c.paper_sigma_c,
-                                 c.position_sigma, c.sog_sigma, c.dvl_scale_prior)
+                                 c.position_sigma, c.sog_sigma, c.dvl_scale_prior if c.dvl_fit_scale else 0.0)
             self._used_sog_t = t
 
     def accel(self, ax: float, ay: float) -> None:
@@ -192,8 +192,10 @@ class PaperModel:
         }
         if self.dvl_updates:
             out["dvl_bias"] = float(x[B])
-            out["dvl_scale"] = 1.0 + float(x[K])
-            out["dvl_std"] = {"bias": math.sqrt(max(P[B, B], 0.0)), "scale": math.sqrt(max(P[K, K], 0.0))}
+            fit_scale = self.cfg.dvl_fit_scale
+            out["dvl_scale"] = 1.0 + float(x[K]) if fit_scale else None
+            out["dvl_std"] = {"bias": math.sqrt(max(P[B, B], 0.0)),
+                              "scale": math.sqrt(max(P[K, K], 0.0)) if fit_scale else None}
         return out
 
 

@@ -31,6 +31,8 @@ ACCEL_FLOOR_VAR = 0.01**2
 #: Gate (χ², 2 dof, 99.99 %) for averaged accelerations and (1 dof) for the log.
 ACCEL_GATE = 18.4
 DVL_GATE = 25.0
+#: Gate (χ², 1 dof, 99.9 %) for heading vs course.
+CROSS_GATE = 10.83
 
 
 def unit(angle: float) -> np.ndarray:
@@ -56,10 +58,10 @@ class VectorModel:
         c = self.cfg
         self.ground = GroundFilter(t, v_n, v_e, sigma, c.jerk_density)
         self.current = CurrentFilter(t, CurrentParams(
-            c.current_steady_q, c.current_trend_q, c.current_rate_sigma, c.current_switch,
+            c.current_steady_q, c.current_slow_q, c.current_fast_q, c.current_rate_sigma, c.current_switch,
             c.current_prior_sigma, c.current_sigma_max, c.leeway_sigma, c.leeway_time,
         ))
-        self.log = LogCalibration(t, c.current_trend_q, c.current_rate_sigma, c.current_prior_sigma,
+        self.log = LogCalibration(t, c.current_fast_q, c.current_rate_sigma, c.current_prior_sigma,
                                   c.current_sigma_max, c.dvl_scale_prior, c.dvl_fit_scale)
 
     def _advance(self, t: float) -> None:
@@ -106,11 +108,14 @@ class VectorModel:
     def accel(self, t: float, a_n: float, a_e: float, n: int) -> tuple[float | None, bool]:
         if self.ground is None:
             return None, False
+        # The mean of the last second's samples, applied now if the filter has moved
+        # past the last sample (the acceleration changes little within a second).
+        t = max(t, self.ground.t)
         self._advance(t)
         var = self.cfg.accel_sigma**2 / max(n, 1) + ACCEL_FLOOR_VAR
         return self.ground.try_accel(a_n, a_e, var, ACCEL_GATE)
 
-    def cross(self, t: float, heading: float) -> float | None:
+    def cross(self, t: float, heading: float) -> tuple[float, bool] | None:
         """Heading vs course (the caller checked heading is fresh and we are not turning)."""
         g, cur = self.ground, self.current
         if g is None or cur is None or t - self._last_cross < CROSS_INTERVAL:
@@ -122,7 +127,9 @@ class VectorModel:
         self._last_cross = t
         stbd = unit(heading + math.pi / 2.0)
         var = float(stbd @ g.P[VEL, VEL] @ stbd) + (math.radians(self.cfg.heading_sigma_deg) * speed) ** 2
-        return cur.cross(t, float(v @ stbd), stbd, var)
+        # The sway state also carries a compass misalignment: it scales with speed.
+        cur.sway_sigma = math.hypot(self.cfg.leeway_sigma, speed * math.radians(self.cfg.heading_bias_deg))
+        return cur.cross(t, float(v @ stbd), stbd, var, CROSS_GATE)
 
     def forecast_nis(self, t: float, c_n: float, c_e: float, var: float) -> float:
         assert self.current is not None
@@ -193,5 +200,5 @@ class VectorModel:
     def health(self) -> dict[str, Any]:
         if self.current is None:
             return {}
-        return {"current_model": {m: round(float(p), 4) for m, p in zip(("steady", "trend"), self.current.mu)}}
+        return {"current_model": {m: round(p, 4) for m, p in self.current.mode_probabilities().items()}}
 

@@ -177,9 +177,7 @@ def _check_missing(r: Replayed, log: str) -> None:
     assert filt is not None, f"{log}: the stw worker's health has no info.filter: {w['info']}"
     inputs = set(w["info"]["inputs"])
     received = inputs & r.kinds
-    # yaw_rate is not reported missing: without one the rate of turn comes from heading
-    # differences, which costs nothing the filter can name.
-    lacking = inputs - received - {"yaw_rate"}
+    lacking = inputs - received
     missing = filt["missing"]
     assert set(missing) == lacking, f"{log}: missing {sorted(missing)}, the log lacks {sorted(lacking)}"
     # None of the shared logs carries a current forecast (plaka's VDR is empty) or an IMU.
@@ -198,13 +196,6 @@ def test_the_stw_health_names_the_inputs_a_real_log_lacks(tmp_path_factory, log)
     _check_missing(r, log)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="edged/workers.py: LoopRunner.stop() drops the core before the final health snapshot, so "
-    "info.filter keeps the last periodic report; in a fast replay of a short log that one predates "
-    "every step (saab-r4: 122 lines, all published before the worker first runs): 'missing' names "
-    "position and SOG, which the log has",
-)
 def test_the_stw_health_after_a_replay_in_the_loop_placement_describes_the_whole_log(tmp_path_factory):
     log = "nmea0183/gpsd__test__daemon__saab-r4.log"
     r = replayed(tmp_path_factory, log)
@@ -214,13 +205,7 @@ def test_the_stw_health_after_a_replay_in_the_loop_placement_describes_the_whole
 
 #: Logs with a Doppler/EM log reading (VHW, PGN 128259) and data time.
 WITH_LOG = [
-    pytest.param("nmea0183/gpsd__test__daemon__bundg_zeus_9.log", marks=pytest.mark.xfail(
-        strict=True,
-        reason="edged_stw vector mode without forecasts: heading-vs-course updates at headings a few "
-        "degrees apart make the along-track current look observed; on the IJsselmeer (a lake) it takes "
-        "the whole ground speed (current 2.95 m/s toward the course, stw 0.16 ± 0.11 m/s at "
-        "t=1534758531 while SOG is 2.96 and the log reads 3.40)",
-    )),
+    "nmea0183/gpsd__test__daemon__bundg_zeus_9.log",
     "nmea0183/signalk-server__samples__gofree-merrimac.log",
     "nmea0183/signalk-server__samples__plaka.log",
     "n2k/canboat__samples__can0-1.pcap__DERIVED_candump-l.log",

@@ -177,3 +177,35 @@ def test_replay_equals_bitwise_for_same_input():
     a = run(core(), Voyage(duration=900, seed=4).measurements())
     b = run(core(), Voyage(duration=900, seed=4).measurements())
     assert [e.values for e in a] == [e.values for e in b]
+
+
+def test_noisy_heading_does_not_drag_the_current_along_the_ship():
+    """Heading − course with a 0.5° / 10 Hz gyro in a pure cross current: the jitter
+    must not be read as information about the current along the ship (which once
+    dragged STW toward zero over a long passage)."""
+    v = Voyage(heading_deg=60.0, current_set_deg=150.0, current_drift=0.5, heading_noise_deg=0.5, heading_hz=10,
+               imu=False, duration=3 * 3600, seed=7)
+    c = core()
+    est = run(c, v.measurements())
+    err = errors(est, v.speed, after=1800)
+    sig = np.array([e.values["stw_std"] for e in est if e.t >= T0 + 1800])
+    assert abs(float(np.mean(err))) < 0.15
+    assert np.mean(np.abs(err) <= 3 * sig) >= 0.98
+    assert c.health()["resets"] == 0
+
+
+def test_heading_that_disagrees_with_course_is_gated():
+    """A heading 30° off (a compass not corrected for deviation): heading − course
+    cannot be a current or leeway; it is rejected and counted, not believed."""
+    ms = []
+    for m in Voyage(duration=1800, seed=8).measurements():
+        if m.kind == "heading" and m.t > T0 + 900:
+            m = Measurement(m.kind, m.source, m.t, {"heading": (m.values["heading"] + math.radians(30)) % (2 * math.pi)})
+        ms.append(m)
+    c = core()
+    est = run(c, ms)
+    h = c.health()
+    assert h["rejected"].get("heading_course.gate", 0) > 10
+    assert h["innovation"]["heading_course"]["gated"] == h["rejected"]["heading_course.gate"]
+    # The along-ship current (the forecasts' business) is not dragged to the ground speed.
+    assert est[-1].values["stw"] > 8.0

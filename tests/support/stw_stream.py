@@ -35,6 +35,8 @@ class Voyage:
     position_sigma: float = 2.5
     sog_sigma: float = 0.065
     forecast_sigma: float = 0.2
+    heading_noise_deg: float = 0.11
+    heading_hz: int = 1
 
     def ground_velocity(self) -> tuple[float, float]:
         h, c = math.radians(self.heading_deg), math.radians(self.current_set_deg)
@@ -60,8 +62,9 @@ class Voyage:
             yield Measurement("velocity_ground", "gnss", t + 0.2,
                               {"sog": math.hypot(gn, ge), "cog": math.atan2(ge, gn) % (2 * math.pi)})
             if self.gyro:
-                yield Measurement("heading", "gyro", t + 0.3,
-                                  {"heading": (math.radians(self.heading_deg) + rng.normal(0, 0.002)) % (2 * math.pi)})
+                for j in range(self.heading_hz):
+                    h = math.radians(self.heading_deg) + rng.normal(0, math.radians(self.heading_noise_deg))
+                    yield Measurement("heading", "gyro", t + 0.3 + j * 0.5 / self.heading_hz, {"heading": h % (2 * math.pi)})
             if self.imu:
                 for j in range(10):
                     yield Measurement("accel_body", "imu", t + 0.35 + 0.05 * j,
