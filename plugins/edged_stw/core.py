@@ -246,9 +246,10 @@ class StwCore:
         self._gated_in_row["current"] = 0
         self.monitor.update("current", nis, 2)
         m.forecast(t, c_n, c_e, var)
-        self._forecast_nis.append(nis)
-        del self._forecast_nis[: -self.cfg.forecast_adapt_window]
-        if self.cfg.forecast_adapt_window and m.current is not None:
+        window = self.cfg.forecast_adapt_window
+        if window and m.current is not None:
+            self._forecast_nis.append(nis)
+            del self._forecast_nis[:-window]
             m.current.adapt(self._forecast_nis, self.cfg.forecast_adapt_limit)
         self._forecast_t = t
 
