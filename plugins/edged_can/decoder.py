@@ -22,6 +22,7 @@ from edged.records import Measurement, RawRecord
 from .config import CanConfig
 from .dbc import DbcDecoder
 from .emit import Emitter
+from . import formats
 from .n2k import N2kDecoder
 
 CLASSIC_MAX = 8
@@ -37,6 +38,9 @@ class CanDecoder:
         self._n2k = N2kDecoder(bus, config, health, emit)
 
     def decode(self, raw: RawRecord) -> list[Measurement]:
+        fmt = raw.meta.get("format") if isinstance(raw.meta, dict) else None
+        if fmt is not None:
+            return self._decode_gateway(raw, fmt)
         count = self._health.count
         ident = _identifier(raw.meta)
         if ident is None or not isinstance(raw.data, (bytes, bytearray)):
@@ -65,6 +69,35 @@ class CanDecoder:
             return self._n2k.decode(raw, can_id)
         count(f"unknown_id.0x{can_id:03x}")
         return []
+
+
+    def _decode_gateway(self, raw: RawRecord, fmt: Any) -> list[Measurement]:
+        """A gateway's own record (a log line): its framer, then the path of a frame
+        from a bus or of a message our fast-packet assembler made (`formats`)."""
+        health = self._health
+        module = formats.by_name(fmt) if isinstance(fmt, str) else None
+        if module is None or not isinstance(raw.data, (bytes, bytearray)):
+            health.count("rejected.unknown_format")
+            health.error(f"{raw.source}: record of unknown gateway format {fmt!r}")
+            return []
+        try:
+            items = module.frame(bytes(raw.data))
+        except formats.Bad as bad:
+            if bad.reason == "gateway_message":
+                health.count("gateway_messages")
+            else:
+                health.count("rejected." + bad.reason)
+                health.error(f"{raw.source}: {bad}")
+            return []
+        out: list[Measurement] = []
+        for item in items:
+            if isinstance(item, formats.Frame):
+                out.extend(self.decode(RawRecord(raw.protocol, raw.source, raw.t, item.data,
+                                                 {"id": item.can_id, "ext": True})))
+            else:
+                health.count("messages")
+                out.extend(self._n2k.decode_message(raw, item.prio, item.pgn, item.src, item.dst, item.payload))
+        return out
 
 
 def _says_fd(meta: Any) -> bool:

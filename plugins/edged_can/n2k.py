@@ -94,6 +94,10 @@ class N2kDecoder:
         }
         self._pgn_keys = {pgn: f"pgn.{pgn}" for pgn in self._handlers}
         self._fast_pgns = {pgn for pgn in self._handlers if n2k_codec.is_fast(pgn)}
+        #: (source, PGN) whose messages a gateway hands over reassembled.
+        self._whole: set[tuple[int, int]] = set()
+        #: The last message the assembler completed per (source, PGN): (t, payload).
+        self._assembled: dict[tuple[int, int], tuple[float, bytes]] = {}
 
     def decode(self, raw: RawRecord, can_id: int) -> list[Measurement]:
         prio, pgn, addr, dst = n2k_codec.split_id(can_id)
@@ -103,11 +107,38 @@ class N2kDecoder:
             self._count_unknown(pgn, data)
             return []
         if pgn in self._fast_pgns:
+            if (addr, pgn) in self._whole:
+                # The gateway also writes this PGN reassembled (PLAIN_MIX_FAST): that
+                # copy is the one decoded; its frames are counted and left.
+                self._health.count("duplicates.fast_frames")
+                return []
             payload = self._fast.push(addr, pgn, data)
             if payload is None:
                 return []
+            self._assembled[(addr, pgn)] = (raw.t, payload)
         else:
             payload = data
+        return self._message(raw, handler, prio, pgn, addr, dst, payload)
+
+    def decode_message(self, raw: RawRecord, prio: int, pgn: int, addr: int, dst: int, payload: bytes) -> list[Measurement]:
+        """A whole message a gateway reassembled (or a single-frame PGN it passed on)."""
+        handler = self._handlers.get(pgn)
+        if handler is None:
+            self._health.count(f"unknown_pgn.{pgn}")
+            return []
+        if pgn in self._fast_pgns:
+            key = (addr, pgn)
+            self._whole.add(key)
+            done = self._assembled.pop(key, None)
+            if done is not None and done[1] == payload and raw.t - done[0] <= 1.0:
+                # The same message just came in as frames (before this key was known
+                # to be reassembled by the gateway): decoded once already.
+                self._health.count("duplicates.fast_messages")
+                return []
+        return self._message(raw, handler, prio, pgn, addr, dst, payload)
+
+    def _message(self, raw: RawRecord, handler: Handler, prio: int, pgn: int, addr: int, dst: int,
+                 payload: bytes) -> list[Measurement]:
         fields = n2k_codec.decode_fields(pgn, payload, addr, dst, prio)
         if fields is None:
             self._health.count("rejected.undecodable")

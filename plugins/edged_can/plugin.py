@@ -11,7 +11,7 @@ from edged.plugin import InputPlugin, PluginContext, ReplayOptions
 from edged.records import RawRecord
 from edged.timecheck import limits_of
 
-from . import candump
+from . import candump, formats
 from .config import CanConfig, default_config
 
 if TYPE_CHECKING:
@@ -104,12 +104,23 @@ class CanInput(InputPlugin):
 
     @classmethod
     def sniff(cls, head: bytes) -> bool:
-        return candump.sniff(head)
+        return candump.sniff(head) or any(f.sniff(head) for f in formats.modules())
 
     @classmethod
     def open_replay(
         cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
     ) -> Iterator[RawRecord]:
+        if hasattr(stream, "peek"):
+            head = stream.peek(4096)[:4096]
+        elif stream.seekable():
+            head = stream.read(4096)
+            stream.seek(0)
+        else:
+            head = b""
+        if head and not candump.sniff(head):
+            for f in formats.modules():
+                if f.sniff(head):
+                    return f.read(stream, source, health, options)
         # Without a configuration section for this file, the bus is the interface the
         # log names, so files of one bus share one decoder (and their fast-packets).
         return candump.read(

@@ -62,7 +62,7 @@ def test_replay_of_two_candump_files_prints_per_pgn_and_per_frame_counts(tmp_pat
     assert "can0.DraftMark" in out and "can0.20" in out
 
 
-@pytest.mark.parametrize("name", ["canboat__samples__merrimac-ydwg-2020.raw", "canboat__samples__dirona-actisense-serial.raw"])
+@pytest.mark.parametrize("name", ["canboat__samples__merrimac-ydwg-2020.raw", "canboat__samples__ikonvert.log"])
 def test_replay_says_clearly_when_a_format_is_not_supported(n2k_data, name, capsys):
     rc = main(["replay", str(n2k_data / name), "--no-zenoh", "--no-progress"])
     err = capsys.readouterr().err

@@ -1,0 +1,79 @@
+"""NMEA 2000 gateway log formats: one module per format, one framer path to the decoder.
+
+Each module has:
+- `NAME`: the format's name, carried in each raw record's meta (`{"format": NAME}`);
+- `sniff(head: bytes) -> bool`: whether a file's first bytes are this format;
+- `read(stream, source, health, options) -> Iterator[RawRecord]`: the file's records,
+  each holding the gateway's own bytes (a line), its time, and the meta above; times
+  and dates are the reader's business (a time of day needs a date), bad lines are
+  counted under `rejected.<reason>`;
+- `frame(data: bytes) -> list[Frame | Message]`: what one record carries, for the CAN
+  decoder (`decoder.CanDecoder`), which treats a `Frame` like a frame read from a bus
+  and a `Message` (a fast-packet PGN the gateway already reassembled) like the output
+  of our fast-packet assembler; raises `Bad(reason, message)` for what cannot be read.
+
+So a recording of raw records replays through the very decoder that read it live, and
+every format gives the same measurements, sources and counters as a CAN bus.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from types import ModuleType
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """One CAN frame: a 29-bit identifier and up to 8 data bytes."""
+
+    can_id: int
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """One whole NMEA 2000 message (a gateway reassembled its fast-packet frames)."""
+
+    prio: int
+    pgn: int
+    src: int
+    dst: int
+    payload: bytes
+
+
+class Bad(ValueError):
+    """A record that cannot be read; `reason` names its counter (`rejected.<reason>`)."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+def can_id(prio: int, pgn: int, src: int, dst: int) -> int:
+    """The 29-bit identifier of (priority, PGN, source, destination): ISO 11783-3.
+
+    PDU1 (PF < 240) carries the destination in the PS byte; PDU2 PGNs include PS.
+    """
+    pf = (pgn >> 8) & 0xFF
+    if pf < 240:
+        pgn = (pgn & 0x3FF00) | (dst & 0xFF)
+    return ((prio & 0x7) << 26) | ((pgn & 0x3FFFF) << 8) | (src & 0xFF)
+
+
+#: The format modules, in the order files are sniffed (candump has its own module).
+MODULES = ("actisense_plain",)
+
+
+def modules() -> list[ModuleType]:
+    return [importlib.import_module(f"{__name__}.{m}") for m in MODULES]
+
+
+_BY_NAME: dict[str, ModuleType] | None = None
+
+
+def by_name(name: str) -> ModuleType | None:
+    global _BY_NAME
+    if _BY_NAME is None:
+        _BY_NAME = {m.NAME: m for m in modules()}
+    return _BY_NAME.get(name)
