@@ -2,6 +2,7 @@
 
 Each module has:
 - `NAME`: the format's name, carried in each raw record's meta (`{"format": NAME}`);
+(`NAME` is also the module's name: the decoder finds a record's framer by it.)
 - `sniff(head: bytes) -> bool`: whether a file's first bytes are this format;
 - `read(stream, source, health, options) -> Iterator[RawRecord]`: the file's records,
   each holding the gateway's own bytes (a line), its time, and the meta above; times
@@ -19,6 +20,7 @@ every format gives the same measurements, sources and counters as a CAN bus.
 from __future__ import annotations
 
 import importlib
+import re
 from dataclasses import dataclass
 from types import ModuleType
 
@@ -69,11 +71,24 @@ def modules() -> list[ModuleType]:
     return [importlib.import_module(f"{__name__}.{m}") for m in MODULES]
 
 
-_BY_NAME: dict[str, ModuleType] | None = None
+_BY_NAME: dict[str, ModuleType | None] = {}
+_NAME = re.compile(r"[a-z][a-z0-9_]{0,31}")
 
 
 def by_name(name: str) -> ModuleType | None:
-    global _BY_NAME
-    if _BY_NAME is None:
-        _BY_NAME = {m.NAME: m for m in modules()}
-    return _BY_NAME.get(name)
+    """The module of format `name` (its NAME is its module name), None if there is
+    none: names come from records (an MCAP file's meta), so only plain identifiers of
+    this package are looked up."""
+    if name not in _BY_NAME:
+        module = None
+        if _NAME.fullmatch(name):
+            try:
+                module = importlib.import_module(f"{__name__}.{name}")
+            except ModuleNotFoundError:
+                module = None
+        if module is not None and getattr(module, "NAME", None) != name:
+            module = None
+        if len(_BY_NAME) < 64:
+            _BY_NAME[name] = module
+        return module
+    return _BY_NAME[name]
