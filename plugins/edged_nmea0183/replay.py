@@ -25,10 +25,14 @@ PROTOCOL = "nmea0183"
 CHUNK = 1 << 16
 #: Lines `sniff` judges at most (a head of 4 KiB holds about 50 sentences).
 _SNIFF_LINES = 400
-#: NMEA 2000 messages in 0183 framing (iKonvert `!PDGY`, `$PCDIN`, Actisense `$MXPGN`):
-#: a log of these is not an NMEA 0183 log, and replaying it as one would only count
-#: every line as unknown. Refusing it lets `edged replay` say the format is unsupported.
-_N2K_ENCAPSULATED = (b"!PDGY,", b"$PCDIN,", b"$MXPGN,")
+#: iKonvert's `!PDGY` lines carry NMEA 2000 without an NMEA 0183 checksum: a log of
+#: them is the CAN input's (`edged_can.formats.ikonvert`), not ours.
+_N2K_ENCAPSULATED = (b"!PDGY,",)
+#: NMEA 2000 in checksummed NMEA 0183 sentences (SeaSmart `$PCDIN`, Shipmodul
+#: `$MXPGN`), alone or among other sentences: framed and timed here like any sentence,
+#: then handed to the CAN decoder (protocol "can", the gateway format in the meta,
+#: `edged_can.formats.pcdin` / `.mxpgn`), so they decode as the same data on a bus would.
+_TO_CAN = {b"$PCDIN,": "pcdin", b"$MXPGN,": "mxpgn"}
 #: The shape of an NMEA 0183 line, valid or not: an optional TAG block or UNIX-time
 #: prefix, `$` or `!`, an address of letters and digits, then a field or the checksum.
 _SHAPE = re.compile(rb"(?:\\[^\\]*\\|[0-9]+(?:\.[0-9]*)?[ \t]+)?([$!][A-Z0-9]{3,10})(?:,|\*[0-9A-Fa-f]{2}$)")
@@ -92,10 +96,15 @@ def read_log(
             health.count("assumed_date", n_assumed)
             reporter.report(f"no date{where} (no RMC/ZDA): times of day placed on 1970-01-01; give --date")
         health.count("accepted", len(placed))
-        return [
-            RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag})
-            for fr, t in placed
-        ]
+        out = []
+        for fr, t in placed:
+            fmt = _TO_CAN.get(fr.sentence[:7])
+            if fmt is not None:
+                health.count(f"n2k_sentences.{fmt}")
+                out.append(RawRecord("can", source, t, fr.sentence, {"format": fmt}))
+            else:
+                out.append(RawRecord(PROTOCOL, source, t, fr.sentence, None if fr.tag is None else {"tag": fr.tag}))
+        return out
 
     push = stamper.push
     while True:

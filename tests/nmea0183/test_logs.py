@@ -102,12 +102,13 @@ def test_numeric_talkers_decode():
     assert health.counters["unknown.MWV"] == 147
 
 
-def test_nmea2000_wrapped_in_0183_framing_is_not_claimed():
-    """iKonvert `!PDGY` / `$PCDIN` logs are NMEA 2000: replay must say it cannot read them."""
+def test_nmea2000_wrapped_in_0183_framing():
+    """iKonvert `!PDGY` (no checksum) is the CAN input's; `$PCDIN`/`$MXPGN` sentences
+    are checksummed NMEA 0183, read here and handed to the CAN decoder."""
     pdgy = b"".join(b"!PDGY,127250,2,3,255,481.%03d,2C20AAAAAAE=\r\n" % i for i in range(30))
     pcdin = b"".join(b"$PCDIN,01F119,00000000,0F,2AAF00D1067414FF*59\r\n" for _ in range(30))
     assert not Nmea0183Input.sniff(pdgy)
-    assert not Nmea0183Input.sniff(pcdin)
+    assert Nmea0183Input.sniff(pcdin)
     body = b"HEHDT,123.4,T"
     hdt = b"$%s*%02X\r\n" % (body, __import__("functools").reduce(lambda a, b: a ^ b, body, 0))
     mixed = hdt * 30 + pdgy[:200]
