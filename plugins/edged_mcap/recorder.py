@@ -57,7 +57,7 @@ from .channels import dumps, encode, to_ns
 from .config import GIB, McapConfig
 from .mcapfile import McapFile
 from .reading import MAGIC
-from .replay import read_raw
+from .rawreader import read_raw
 
 __all__ = ["McapRecorder", "Opener", "numbered"]
 

@@ -2,7 +2,7 @@
 
 Counters (in the input's ComponentHealth):
 - `lines`: every line that is neither blank nor a `#` comment;
-- `rejected.<reason>`: lines refused by `framing.frame` (see framing.REJECT_REASONS);
+- `rejected.<reason>`: lines refused by `lines.frame` (see lines.REJECT_REASONS);
 - `comments`: `#` lines (gpsd log headers), which are not errors.
 The caller counts `accepted` (live: every framed line; replay: every line the stamper
 could give a time, the others being `rejected.no_time`), so that
@@ -15,7 +15,7 @@ from itertools import repeat
 
 from edged.health import ComponentHealth
 
-from .framing import COMMENT, Framed, LineSplitter, frame, line_xors
+from .lines import COMMENT, Framed, LineSplitter, frame, line_xors
 from .reporting import ProblemReporter
 
 

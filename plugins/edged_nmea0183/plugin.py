@@ -13,7 +13,7 @@ from .config import Nmea0183Config
 from .decoder import DecoderSettings, Nmea0183Decoder
 from .framer import Framer
 from .link import Sleep, TransportLink
-from .replay import PROTOCOL, meta_of, read_log, sniff
+from .logfile import PROTOCOL, meta_of, read_log, sniff
 from .transports import make_transport
 
 

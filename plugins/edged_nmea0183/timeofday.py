@@ -9,7 +9,7 @@ from __future__ import annotations
 import datetime as _dt
 from typing import Callable
 
-from .framing import BAD_TIME, Framed
+from .lines import BAD_TIME, Framed
 
 DAY = 86400.0
 HALF_DAY = 43200.0

@@ -121,7 +121,7 @@ def _log(tmp_path: Path, bad: str) -> Path:
 
 
 def test_replay_record_of_a_log_with_a_year_2603_line_records_every_other_line(tmp_path, capsys):
-    from edged_mcap.replay import read_raw
+    from edged_mcap.rawreader import read_raw
 
     log = _log(tmp_path, "(20000000000.0) can0 09F11201#0011223344556677")
     out = tmp_path / "out.mcap"

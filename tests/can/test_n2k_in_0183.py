@@ -23,7 +23,7 @@ import pytest
 from edged.cli import main as cli
 from edged.plugin import ReplayOptions
 from edged_can.plugin import CanInput
-from edged_nmea0183 import replay as nmea_replay
+from edged_nmea0183 import logfile as nmea_replay
 
 
 def _s(body: str) -> str:

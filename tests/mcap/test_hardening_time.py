@@ -17,7 +17,7 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged_mcap.recorder import McapRecorder
-from edged_mcap.replay import read_raw
+from edged_mcap.rawreader import read_raw
 
 T0 = 1732350000.0
 

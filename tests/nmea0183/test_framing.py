@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from edged_nmea0183.framer import Framer
-from edged_nmea0183.framing import MAX_LINE, Framed, LineSplitter, frame, nmea_checksum
+from edged_nmea0183.lines import MAX_LINE, Framed, LineSplitter, frame, nmea_checksum
 
 HDT = "$HEHDT,274.07,T*19"
 

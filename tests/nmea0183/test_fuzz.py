@@ -15,7 +15,7 @@ from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord, validate_measurement
 from edged_nmea0183.framer import Framer
-from edged_nmea0183.framing import Framed, LineSplitter, frame
+from edged_nmea0183.lines import Framed, LineSplitter, frame
 from edged_nmea0183.handlers import HANDLERS
 from edged_nmea0183.plugin import Nmea0183Input
 

@@ -17,7 +17,7 @@ from edged.records import RawRecord
 from edged.timecheck import TimeWindow, limits_of
 
 from .framer import Framer
-from .framing import BAD_TIME, NO_TIME, Framed
+from .lines import BAD_TIME, NO_TIME, Framed
 from .reporting import ProblemReporter
 from .timeofday import ReplayStamper, parse_date_option
 
