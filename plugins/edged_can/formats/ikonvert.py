@@ -1,0 +1,221 @@
+"""Digital Yacht iKonvert: `!PDGY,<pgn>,<prio>,<src>,<dst>,<timer>,<base64 payload>`, a whole message a line.
+
+The gateway reassembles fast-packets: each line is a `Message`. Its `$PDGY,…` lines
+(`$PDGY,000000,…` status: bus load, errors, devices, uptime; command answers) are the
+gateway's own: counted `gateway_status`, not measurements, not records.
+
+What the real logs hold (canboat's `ikonvert.log`), and how it is read:
+- the timer is `seconds.milliseconds` with the milliseconds NOT zero-padded:
+  `482.37` is 482.037 s (read as a decimal it would run backwards);
+- a status sentence may cut into a message without a line end
+  (`!PDGY,127250,…,Ai20AAAAAAE=$PDGY,000000,…`): the message ends where the glued
+  sentence starts, and each is read on its own;
+- a line that does not start with `!PDGY,` / `$PDGY,` (bytes of a lost sentence in
+  front: `,o!PDGY,…`) comes from a stream already broken: rejected `bad_line`, whole.
+
+Time: the timer counts seconds since the gateway started, not a date.
+- Absolute time comes from the first PGN 126992 System Time (payload bytes 2-3 days
+  since 1970, 4-7 seconds since midnight × 1e-4) or 129029 GNSS Position (bytes 1-2,
+  3-6) in the log: t = its UTC time + (timer − its timer). Lines before it are held
+  (at most HOLD) and released with that time. The first such time holds until the
+  gateway restarts (its clock's drift against GNSS time is not followed).
+- `--date` wins over the log's date: the first 126992/129029 still gives the time of
+  day, on that date; when none comes (within HOLD lines or at all) the timer counts
+  from 00:00:00 UTC of that date.
+- No time in the log and no `--date`: every line `rejected.no_date`, one error naming
+  `--date`; never 1970.
+- A timer more than RESTART_TOLERANCE back is a restart of the gateway: counted
+  `timer_restarts` (not a rejection: the lines are good), and the lines after it wait
+  (at most HOLD) for the next 126992/129029; if none comes, their timer counts from the
+  last time before the restart. A smaller step back is the gateway's jitter.
+Ours: the `nmea2000` package reads `!PDGY` lines but gives no per-reason counts and no
+time; the unpadded milliseconds and the glued sentences need a reader of their own.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import re
+from collections import deque
+from typing import Any, BinaryIO, Iterator
+
+from edged.health import ComponentHealth
+from edged.records import RawRecord
+from edged.timecheck import BAD_TIME, TimeWindow, limits_of
+
+from . import Bad, Message
+from .ydwg_raw import DAY_MS, HOLD, date_day, day_of
+
+NAME = "ikonvert"
+_MSG = re.compile(rb"!PDGY,(\d{1,7}),([0-7]),(\d{1,3}),(\d{1,3}),(\d{1,10})\.(\d{1,3}),([^,]*)")
+_GLUED = re.compile(rb"(?=[!$]PDGY)")
+_SNIFF_MSG = re.compile(rb"!PDGY,\d{1,7},[0-7],\d{1,3},\d{1,3},\d{1,10}\.\d{1,3},[A-Za-z0-9+/]+={0,2}\s*")
+MAX_PGN = 0x3FFFF
+MAX_LENGTH = 223  # the longest fast-packet message
+#: A timer step back beyond this is a restart of the gateway.
+RESTART_TOLERANCE_MS = 1000
+_PGN_SYSTEM_TIME = 126992
+_PGN_GNSS = 129029
+
+
+def sniff(head: bytes) -> bool:
+    lines = [ln.strip() for ln in head.splitlines()[:40] if ln.strip()][:20]
+    msgs = sum(1 for ln in lines if _SNIFF_MSG.fullmatch(ln))
+    status = sum(1 for ln in lines if ln.startswith(b"$PDGY,"))
+    # A line may be cut (the head's last, a glued status): most, not all, must be whole.
+    return msgs >= 1 and msgs + status >= max(1, len(lines) - 2)
+
+
+def _timer_ms(sec: bytes, ms: bytes) -> int:
+    return int(sec) * 1000 + int(ms)  # "482.37" is 482 s and 37 ms
+
+
+def _utc_ms(pgn: int, b64: bytes, earliest: float, latest: float) -> int | None:
+    """The UTC time (ms since 1970) a 126992/129029 message states; None without one."""
+    try:
+        p = base64.b64decode(b64, validate=True)
+    except (binascii.Error, ValueError):
+        return None
+    if pgn == _PGN_SYSTEM_TIME and len(p) >= 8:
+        days, secs = p[2] | p[3] << 8, int.from_bytes(p[4:8], "little")
+    elif pgn == _PGN_GNSS and len(p) >= 7:
+        days, secs = p[1] | p[2] << 8, int.from_bytes(p[3:7], "little")
+    else:
+        return None
+    if days >= 0xFFFD or secs >= 864_010_000:  # not available / error / beyond a leap second
+        return None
+    ms = days * DAY_MS + secs // 10
+    return ms if earliest * 1000.0 <= ms <= latest * 1000.0 else None
+
+
+def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
+    limits = limits_of(options)
+    accept = TimeWindow(limits).accept
+    reported: set[str] = set()
+
+    def reject(reason: str, message: str) -> None:
+        health.count("rejected." + reason)
+        if reason not in reported:
+            reported.add(reason)
+            health.error(f"{source}: {message} (further such lines counted as rejected.{reason})")
+
+    no_date = (
+        f"no date for the gateway's timer: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
+        "give it with `edged replay --date YYYY-MM-DD`"
+    )
+    text = getattr(options, "date", None)
+    day: int | None = None  # --date
+    try:
+        day = date_day(text)
+    except ValueError:
+        health.error(f"replay date {text!r} is not YYYY-MM-DD: ignored")
+    meta = {"format": NAME}
+    anchor: tuple[int, int] | None = None  # (UTC ms, timer ms) of this run of the gateway
+    last_ms: int | None = None  # the newest time placed
+    last_timer: int | None = None
+    pending: deque[tuple[int, bytes, int]] = deque()  # (timer ms, sentence, line) waiting for a time
+
+    def fallback() -> tuple[int, int] | None:
+        """The anchor when the log states no time: the last time before a restart, else
+        00:00 of --date, else none."""
+        if last_ms is not None:
+            return (last_ms, 0)
+        if day is not None:
+            return (day * DAY_MS, 0)
+        return None
+
+    def place(timer: int, s: bytes, lineno: int) -> RawRecord | None:
+        nonlocal last_ms
+        assert anchor is not None
+        ms = anchor[0] + timer - anchor[1]
+        t = ms / 1000.0
+        if not accept(t):
+            reject(BAD_TIME, f"line {lineno}: time {t!r} cannot be true")
+            return None
+        if last_ms is None or ms > last_ms:
+            last_ms = ms
+        return RawRecord("can", source, t, s, meta)
+
+    def release() -> Iterator[RawRecord]:
+        nonlocal anchor
+        if anchor is None:
+            anchor = fallback()
+        while pending:
+            item = pending.popleft()
+            if anchor is None:
+                reject("no_date", no_date)
+                continue
+            r = place(*item)
+            if r is not None:
+                yield r
+
+    for lineno, line in enumerate(stream, 1):
+        s = line.strip()
+        if not s:
+            continue
+        if not (s.startswith(b"!PDGY,") or s.startswith(b"$PDGY,")):
+            reject("bad_line", f"line {lineno}: not an iKonvert sentence at the line's start: {s[:60]!r}")
+            continue
+        pieces = _GLUED.split(s)[1:] if b"PDGY" in s[5:] else (s,)
+        for piece in pieces:
+            if piece[:1] == b"$":
+                health.count("gateway_status")
+                continue
+            m = _MSG.fullmatch(piece)
+            if m is None:
+                reject("bad_line", f"line {lineno}: not a whole !PDGY sentence: {piece[:60]!r}")
+                continue
+            timer = _timer_ms(m.group(5), m.group(6))
+            if last_timer is not None and timer < last_timer - RESTART_TOLERANCE_MS:
+                health.count("timer_restarts")
+                health.error(
+                    f"{source}: line {lineno}: the gateway's timer went back from {last_timer / 1000:.3f} s to "
+                    f"{timer / 1000:.3f} s (a restart): times from the next 126992/129029"
+                )
+                yield from release()  # the run before the restart, on what it knew
+                anchor = None
+            last_timer = timer
+            if anchor is None:
+                pgn = int(m.group(1))
+                utc = _utc_ms(pgn, m.group(7), limits.earliest, limits.latest) if pgn in (_PGN_SYSTEM_TIME, _PGN_GNSS) else None
+                if utc is None:
+                    pending.append((timer, piece, lineno))
+                    if len(pending) > HOLD:
+                        if fallback() is not None:
+                            yield from release()
+                        else:
+                            pending.popleft()
+                            reject("no_date", no_date)
+                    continue
+                if day is not None:
+                    # --date wins: the message's time of day, on that date (after a
+                    # restart: on the day nearest the last time placed)
+                    ref = last_ms if last_ms is not None else day * DAY_MS + DAY_MS // 2
+                    utc = day_of(ref, utc % DAY_MS) * DAY_MS + utc % DAY_MS
+                anchor = (utc, timer)
+                yield from release()
+            r = place(timer, piece, lineno)
+            if r is not None:
+                yield r
+    yield from release()
+
+
+def frame(data: bytes) -> list[Message]:
+    if data.startswith(b"$PDGY"):
+        return []  # the gateway's status: nothing on the bus
+    m = _MSG.fullmatch(data)
+    if m is None:
+        raise Bad("bad_line", f"not a whole iKonvert !PDGY sentence: {data[:60]!r}")
+    pgn, prio, src, dst = (int(x) for x in m.group(1, 2, 3, 4))
+    if pgn > MAX_PGN:
+        raise Bad("bad_pgn", f"PGN {pgn} beyond the 18 bits of an NMEA 2000 PGN")
+    if src > 255 or dst > 255:
+        raise Bad("bad_address", f"PGN {pgn}: source {src} / destination {dst} beyond 255")
+    try:
+        payload = base64.b64decode(m.group(7), validate=True)
+    except (binascii.Error, ValueError):
+        raise Bad("bad_base64", f"PGN {pgn}: payload {m.group(7)[:40]!r} is not base64") from None
+    if not payload or len(payload) > MAX_LENGTH:
+        raise Bad("bad_length", f"PGN {pgn}: {len(payload)} payload bytes (1 to {MAX_LENGTH})")
+    return [Message(prio, pgn, src, dst, payload)]
