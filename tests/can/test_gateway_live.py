@@ -1,0 +1,114 @@
+"""The `n2k_gateway` input, live: a test gateway on 127.0.0.1 (a TCP server and a UDP
+sender written here) feeds it; the connection drops in the middle of a line and comes
+back. Every wait is on an event with a timeout, never a sleep-poll."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+from functools import reduce
+
+import pytest
+from pydantic import ValidationError
+
+from edged.clock import ManualClock
+from edged.health import ComponentHealth
+from edged.plugin import PluginContext
+from edged_can.gateway import GatewayConfig, GatewayInput
+from nmea_rig import NOW, Sink
+
+HDG = b"2024-01-01T12:00:00.000Z,2,127250,7,255,8,ff,10,3b,ff,7f,ce,f5,fc"  # 1.5120 rad, true
+
+
+def _pcdin() -> bytes:
+    body = "PCDIN,01F119,00000000,0F,2AAF00D1067414FF"
+    return f"${body}*{reduce(lambda a, ch: a ^ ord(ch), body, 0):02X}".encode()
+
+
+async def _no_wait(_: float) -> None:
+    await asyncio.sleep(0)
+
+
+def _make(**cfg) -> tuple[GatewayInput, Sink, ComponentHealth]:
+    config = GatewayConfig(type="n2k_gateway", **cfg)
+    health = ComponentHealth("ydwg", "input", "n2k_gateway", ManualClock(NOW))
+    sink = Sink()
+    ctx = PluginContext(name="ydwg", clock=ManualClock(NOW), health=health, publish=sink,
+                        decoder=GatewayInput.make_decoder("ydwg", config, health))
+    return GatewayInput(config, ctx, sleep=_no_wait), sink, health
+
+
+async def _stop(task: asyncio.Task) -> None:
+    task.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await task
+
+
+def test_tcp_gateway_drops_mid_line_and_comes_back():
+    async def main() -> None:
+        conns: list[int] = []
+
+        async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            conns.append(1)
+            if len(conns) == 1:
+                writer.write(HDG + b"\r\n" + HDG + b"\r\n" + HDG[:20])  # then the gateway goes away
+            else:
+                writer.write(HDG[20:] + b"\r\n" + HDG + b"\r\n")  # the tail alone is not a line
+            await writer.drain()
+            writer.close()
+
+        server = await asyncio.start_server(serve, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        plugin, sink, health = _make(gateway="actisense_plain", transport="tcp", host="127.0.0.1", port=port)
+        task = asyncio.create_task(plugin.run())
+        try:
+            await sink.wait_raw(4)
+        finally:
+            await _stop(task)
+            server.close()
+        raw = sink.raw
+        assert [r.data for r in raw[:2]] + [raw[3].data] == [HDG, HDG, HDG]
+        assert all(r.protocol == "can" and r.meta == {"format": "actisense_plain"} and r.t == NOW for r in raw)
+        hdg = [m for m in sink.measurements if m.kind == "heading"]
+        assert len(hdg) == 3 and all(m.source == "ydwg.7" and m.values["heading"] == pytest.approx(1.512) for m in hdg)
+        c = health.counters
+        assert c["partial_lines"] == 1  # the cut line, counted, never joined to the next
+        assert c["rejected.bad_line"] == 1  # its tail on the next connection
+        assert c["connects"] >= 2 and c["disconnects"] >= 1
+
+    asyncio.run(main())
+
+
+def test_udp_gateway_datagrams_decode():
+    async def main() -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        plugin, sink, health = _make(gateway="pcdin", transport="udp", port=port)
+        task = asyncio.create_task(plugin.run())
+        try:
+            loop = asyncio.get_running_loop()
+            transport, _ = await loop.create_datagram_endpoint(asyncio.DatagramProtocol, remote_addr=("127.0.0.1", port))
+            for _ in range(200):  # until the listener is up: each send is one datagram of two lines
+                transport.sendto(_pcdin() + b"\r\n" + _pcdin())
+                try:
+                    await asyncio.wait_for(sink.wait_raw(2), 0.05)
+                    break
+                except asyncio.TimeoutError:
+                    continue
+            transport.close()
+        finally:
+            await _stop(task)
+        att = [m for m in sink.measurements if m.kind == "attitude"]
+        assert att and att[0].source == "ydwg.15" and att[0].values["roll"] == pytest.approx(0.5236)
+        assert health.counters["lines"] == len(sink.raw)
+
+    asyncio.run(main())
+
+
+def test_config_errors_name_the_key():
+    with pytest.raises(ValidationError, match="host"):
+        GatewayConfig(type="n2k_gateway", gateway="ydwg_raw", transport="tcp", port=1457)
+    with pytest.raises(ValidationError, match="gateway"):
+        GatewayConfig(type="n2k_gateway", gateway="nmea0183", transport="udp", port=1457)
+    assert GatewayConfig(type="n2k_gateway", gateway="ydwg_raw", transport="udp", port=1456).claims()
