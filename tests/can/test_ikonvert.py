@@ -183,6 +183,9 @@ def test_status_lines_are_counted_not_measurements_and_a_glued_one_is_split(make
     assert health.counters["gateway_status"] == 2
     assert [m.kind for m in ms] == ["heading"]
     assert ikonvert.frame(b"$PDGY,000000,4,,5,482,1,0") == []
+    # a live stream's line, not split by `read`: the message, the status left out
+    glued = _heading(1_500).rstrip() + b"$PDGY,000000,3,,5,483,1,0"
+    assert [(x.pgn, x.src, len(x.payload)) for x in ikonvert.frame(glued)] == [(127250, 7, 8)]
 
 
 # ---- round trip: candump and iKonvert of the same PGN stream -------------------------

@@ -202,8 +202,19 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
 
 
 def frame(data: bytes) -> list[Message]:
+    """A record's message. `read` gives one sentence a record; a live stream's line may
+    still hold a glued status sentence (`…=$PDGY,000000,…`): split as `read` does."""
+    data = data.strip()
     if data.startswith(b"$PDGY"):
         return []  # the gateway's status: nothing on the bus
+    if not data.startswith(b"!PDGY,"):
+        raise Bad("bad_line", f"not an iKonvert sentence at the line's start: {data[:60]!r}")
+    if b"PDGY" in data[5:]:
+        return [_message(piece) for piece in _GLUED.split(data)[1:] if piece[:1] == b"!"]
+    return [_message(data)]
+
+
+def _message(data: bytes) -> Message:
     m = _MSG.fullmatch(data)
     if m is None:
         raise Bad("bad_line", f"not a whole iKonvert !PDGY sentence: {data[:60]!r}")
@@ -218,4 +229,4 @@ def frame(data: bytes) -> list[Message]:
         raise Bad("bad_base64", f"PGN {pgn}: payload {m.group(7)[:40]!r} is not base64") from None
     if not payload or len(payload) > MAX_LENGTH:
         raise Bad("bad_length", f"PGN {pgn}: {len(payload)} payload bytes (1 to {MAX_LENGTH})")
-    return [Message(prio, pgn, src, dst, payload)]
+    return Message(prio, pgn, src, dst, payload)
