@@ -68,7 +68,12 @@ GATEWAY = [
 LOGS = NMEA + CANDUMP + GATEWAY
 #: Logs whose GNSS sends no SOG/COG: the Furuno autopilot capture's PGN 129026 is all
 #: 0xFF ("not available": `2021-08-06-11:45:30.686,2,129026,36,255,8,ff,fc,ff,…`).
-WITHOUT_SOG = {"n2k/canboat__samples__furuno-fap7011c-autopilot-maneuvers.raw"}
+#: The iKonvert capture's GNSS has no fix: 129025/129026 are all "not available"
+#: (`!PDGY,129026,2,2,255,482.216,UPz///////8=`) and 129029 says no fix.
+WITHOUT_SOG = {
+    "n2k/canboat__samples__furuno-fap7011c-autopilot-maneuvers.raw",
+    "n2k/canboat__samples__ikonvert.log",
+}
 #: No timestamps in the file: all records at t = 0 (INDEX.md: "NO timestamps").
 UNTIMED = {"n2k/canboat__samples__candumpSample1.txt", "n2k/canboat__samples__candumpSample2.txt"}
 

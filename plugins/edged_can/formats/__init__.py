@@ -64,7 +64,7 @@ def can_id(prio: int, pgn: int, src: int, dst: int) -> int:
 
 
 #: The format modules, in the order files are sniffed (candump has its own module).
-MODULES = ("actisense_plain",)
+MODULES = ("actisense_plain", "ydwg_raw", "ikonvert")
 
 
 def modules() -> list[ModuleType]:
