@@ -40,9 +40,22 @@ def sniff(head: bytes) -> bool:
     return bool(good) and len(good) >= max(1, len(lines[:10]) - 1)
 
 
+_DAYS: dict[bytes, float] = {}
+
+
+def _day(date: bytes) -> float:
+    """UNIX time of a date's midnight UTC (cached: a log has few dates, many lines)."""
+    base = _DAYS.get(date)
+    if base is None:
+        base = datetime.strptime(date.decode(), "%Y-%m-%d").replace(tzinfo=timezone.utc).timestamp()
+        if len(_DAYS) < 4096:
+            _DAYS[date] = base
+    return base
+
+
 def _time(m: re.Match[bytes]) -> float:
     date, hh, mm, ss, zone = m.group(1, 2, 3, 4, 5)
-    base = datetime.strptime(date.decode(), "%Y-%m-%d").replace(tzinfo=timezone.utc).timestamp()
+    base = _day(date)
     t = base + int(hh) * 3600 + int(mm) * 60 + float(ss)
     if zone and zone != b"Z":
         sign = -1 if zone[:1] == b"+" else 1
