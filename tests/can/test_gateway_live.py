@@ -112,3 +112,32 @@ def test_config_errors_name_the_key():
     with pytest.raises(ValidationError, match="gateway"):
         GatewayConfig(type="n2k_gateway", gateway="nmea0183", transport="udp", port=1457)
     assert GatewayConfig(type="n2k_gateway", gateway="ydwg_raw", transport="udp", port=1456).claims()
+
+
+def test_ydwg_raw_over_tcp_decodes_like_its_log():
+    """A YDWG-02's RAW stream (time of day in each line; live, the clock stamps it)."""
+    # From merrimac-ydwg-2020.raw: 09F11213 = priority 2, PGN 127250 (0x1F112), source 0x13.
+    line = b"00:29:58.627 R 09F11213 00 16 3A FF 7F FF 7F FD"
+
+    async def main() -> None:
+        async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            writer.write((line + b"\r\n") * 3)
+            await writer.drain()
+            await reader.read()  # keep the connection until the test ends
+
+        server = await asyncio.start_server(serve, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        plugin, sink, health = _make(gateway="ydwg_raw", transport="tcp", host="127.0.0.1", port=port)
+        task = asyncio.create_task(plugin.run())
+        try:
+            await sink.wait_raw(3)
+        finally:
+            await _stop(task)
+            server.close()
+        hdg = [m for m in sink.measurements if m.kind == "heading_magnetic"]
+        # Bytes 1-2: 0x3A16 = 14870 → 1.4870 rad; the last byte 0xFD & 3 = 1: magnetic (and
+        # no variation heard yet, so it stays a magnetic heading).
+        assert len(hdg) == 3 and hdg[0].source == "ydwg.19" and hdg[0].values["heading"] == pytest.approx(1.487)
+        assert all(m.t == NOW for m in hdg)
+
+    asyncio.run(main())
