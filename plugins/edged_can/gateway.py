@@ -68,13 +68,18 @@ class _Lines:
         self.buf = b""
         self.health = health
         self.max_line = max_line
+        self.skipping = False  # the rest of an over-long line is dropped up to its end
 
     def feed(self, data: bytes) -> list[bytes]:
         self.buf += data
         *lines, self.buf = self.buf.split(b"\n")
+        if self.skipping and lines:
+            lines = lines[1:]  # the tail of the over-long line
+            self.skipping = False
         if len(self.buf) > self.max_line:
             self.health.count("rejected.too_long")
             self.buf = b""
+            self.skipping = True
         out = []
         for ln in lines:
             ln = ln.strip()
@@ -90,6 +95,7 @@ class _Lines:
         if self.buf.strip():
             self.health.count("partial_lines")
         self.buf = b""
+        self.skipping = False
 
 
 class GatewayInput(InputPlugin):

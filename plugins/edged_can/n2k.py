@@ -33,6 +33,9 @@ _GNSS_NO_FIX, _GNSS_ERROR = 0, 14  # GNS_METHOD; 1..8 match NMEA 0183 GGA fix qu
 _GNSS_UNAVAILABLE = 15  # the 4-bit field's "not available"
 _GNSS_LAST_DEFINED = 8
 _DAY = 86400.0
+#: Seconds around a reassembled message within which frames of the same source and
+#: PGN are taken as its copies (a fast-packet PGN repeats at 1 Hz or slower).
+WHOLE_WINDOW = 5.0
 
 Handler = Callable[[dict[str, Any], bytes, int, float, list[Measurement]], None]
 
@@ -94,8 +97,9 @@ class N2kDecoder:
         }
         self._pgn_keys = {pgn: f"pgn.{pgn}" for pgn in self._handlers}
         self._fast_pgns = {pgn for pgn in self._handlers if n2k_codec.is_fast(pgn)}
-        #: (source, PGN) whose messages a gateway hands over reassembled.
-        self._whole: set[tuple[int, int]] = set()
+        #: (source, PGN) whose messages a gateway hands over reassembled -> the time of
+        #: the last such message (frames of that key are its copies only near it).
+        self._whole: dict[tuple[int, int], float] = {}
         #: The last message the assembler completed per (source, PGN): (t, payload).
         self._assembled: dict[tuple[int, int], tuple[float, bytes]] = {}
 
@@ -107,7 +111,8 @@ class N2kDecoder:
             self._count_unknown(pgn, data)
             return []
         if pgn in self._fast_pgns:
-            if (addr, pgn) in self._whole:
+            whole_t = self._whole.get((addr, pgn))
+            if whole_t is not None and abs(raw.t - whole_t) <= WHOLE_WINDOW:
                 # The gateway also writes this PGN reassembled (PLAIN_MIX_FAST): that
                 # copy is the one decoded; its frames are counted and left.
                 self._health.count("duplicates.fast_frames")
@@ -128,7 +133,7 @@ class N2kDecoder:
             return []
         if pgn in self._fast_pgns:
             key = (addr, pgn)
-            self._whole.add(key)
+            self._whole[key] = raw.t
             done = self._assembled.pop(key, None)
             if done is not None and done[1] == payload and raw.t - done[0] <= 1.0:
                 # The same message just came in as frames (before this key was known

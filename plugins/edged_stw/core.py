@@ -42,6 +42,10 @@ COSTS: dict[str, str] = {
 HEADING_MAX_AGE = 30.0
 YAW_RATE_MAX_AGE = 5.0
 DVL_MAX_AGE = 10.0
+#: No sea current runs faster (m/s; the Pentland Firth's 8 m/s is among the fastest).
+MAX_CURRENT = 10.0
+#: Accelerations beyond this (m/s², 2 g) are not a ship's.
+MAX_ACCEL = 20.0
 #: The log is fitted only against an STW known better than this (m/s).
 DVL_FIT_MAX_STD = 0.5
 
@@ -64,7 +68,7 @@ class StwCore:
         self._constant_t = -math.inf
         self._gated_in_row: Counter[str] = Counter()
         self._warnings: list[str] = []
-        self._pending_forecast: tuple[float, float, float] | None = None
+        self._pending_forecast: tuple[float, float, float, float] | None = None
         self._forecast_nis: list[float] = []
 
     # ------------------------------------------------------------------ inputs
@@ -83,8 +87,12 @@ class StwCore:
             was_ready = self.model.ready
             handler(t, v, rec)
             if not was_ready and self.model.ready and self._pending_forecast is not None:
-                self._forecast(t, *self._pending_forecast)
+                t_f, *forecast = self._pending_forecast
                 self._pending_forecast = None
+                if t - t_f <= self.cfg.forecast_max_age:
+                    self._forecast(t, *forecast)
+                else:
+                    self.rejected["current.stale"] += 1
         self._constant_current(t)
         return []
 
@@ -92,6 +100,9 @@ class StwCore:
         lat, lon = v.get("lat"), v.get("lon")
         if not _finite(lat, lon):
             self.rejected["position.incomplete"] += 1
+            return
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            self.rejected["position.implausible"] += 1
             return
         m = self.model
         if isinstance(m, PaperModel):
@@ -160,6 +171,9 @@ class StwCore:
         if not _finite(ax, ay):
             self.rejected["accel_body.incomplete"] += 1
             return
+        if abs(ax) > MAX_ACCEL or abs(ay) > MAX_ACCEL:
+            self.rejected["accel_body.implausible"] += 1
+            return
         m = self.model
         if isinstance(m, PaperModel):
             m.accel(ax, ay)
@@ -205,6 +219,9 @@ class StwCore:
         if not _finite(set_, drift):
             self.rejected["current.incomplete"] += 1
             return
+        if not 0.0 <= drift <= MAX_CURRENT:
+            self.rejected["current.implausible"] += 1
+            return
         t_src = rec.t_src
         if t_src is not None and t - t_src > self.cfg.forecast_max_age:
             self.rejected["current.stale"] += 1
@@ -221,7 +238,7 @@ class StwCore:
         if not m.ready:
             # Forecasts come every 20 minutes: the one that arrived before the first
             # GNSS fix is kept for the moment the filter starts.
-            self._pending_forecast = (set_, drift, sigma)
+            self._pending_forecast = (t, set_, drift, sigma)
             return
         if isinstance(m, PaperModel):
             m.forecast(set_, drift)
@@ -234,7 +251,7 @@ class StwCore:
             var = sigma * sigma * 1e6
         c_n, c_e = drift * math.cos(set_), drift * math.sin(set_)
         nis = m.forecast_nis(t, c_n, c_e, var)
-        if nis > self.cfg.forecast_gate:
+        if not nis <= self.cfg.forecast_gate:
             self.monitor.gated("current")
             self.rejected["current.gate"] += 1
             self._gated_in_row["current"] += 1
@@ -243,6 +260,8 @@ class StwCore:
             # Two forecasts in a row disagree with the filter: the filter is wrong.
             m.forget_current()
             self.monitor.reset("forecasts disagree with the current estimate: current forgotten", t)
+            self._forecast_nis.clear()
+            nis = m.forecast_nis(t, c_n, c_e, var)
         self._gated_in_row["current"] = 0
         self.monitor.update("current", nis, 2)
         m.forecast(t, c_n, c_e, var)
@@ -311,7 +330,9 @@ class StwCore:
             r = self.heading.rate[1]
         else:
             return False
-        return abs(r) > math.radians(self.cfg.turn_rate_max_deg) or not self.heading.settled()
+        if abs(r) > math.radians(self.cfg.turn_rate_max_deg):
+            return True
+        return self.heading.fresh(t, HEADING_MAX_AGE) and not self.heading.settled()
 
     # ------------------------------------------------------------------ output
     def tick(self, t: float) -> list[Estimate]:

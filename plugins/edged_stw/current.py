@@ -201,7 +201,7 @@ class CurrentFilter:
         H[0, S] = 1.0
         y, P = self.mixture()
         _, _, nis = innovation(y, P, np.array([z]), np.array([[var]]), H)
-        if nis > gate:
+        if not nis <= gate:  # NaN fails too
             return nis, False
         self._update_modes(np.array([z]), np.array([[var]]), H)
         return nis, True

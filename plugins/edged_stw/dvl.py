@@ -11,12 +11,13 @@ multiplies a measured speed, not the current: k·Δc is a few mm/s), and
 b = b₀ − k·u₀ with its σ from their covariance.
 State  q = [c_n, c_e, ċ_n, ċ_e, b, k]: its own copy of the current and its rate of
 change, the log's offset b (m/s) and scale error k. The current varies smoothly
-(integrated random walk, as the STW filter's `trend` hypothesis):
+(an integrated random walk, like the STW filter's drifting and turning hypotheses):
     c(k+1) = c + T·ċ,  ċ(k+1) = ċ + w,   Q = q·[[T³/3, T²/2], [T²/2, T]] per axis
 so that a tidal stream turning over hours is followed while a speed change over minutes
-cannot be mistaken for the water changing (that is what separates k from c). Forecasts
-update the current as in the STW filter; the log updates all six states (extended
-Kalman update, the model is bilinear in k and c).
+cannot be mistaken for the water changing (that is what separates k from c); it is
+given the STW filter's `turning` hypothesis' noise (`current_fast_q`). Forecasts update
+the current as in the STW filter; the log updates all six states with a linear Kalman
+update (the scale multiplies the measured ground speed, see below).
 
 Why a copy of the current: the STW filter's current must never see the log, but a fit
 of b and k against a current that only forecasts move inherits each forecast's jump as a

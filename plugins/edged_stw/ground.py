@@ -88,7 +88,7 @@ class GroundFilter:
             self.have_position = True
             return 0.0, True
         _, _, nis = innovation(self.x, self.P, z, R, _H_POS)
-        if nis > gate:
+        if not nis <= gate:  # NaN fails too
             return nis, False
         self.x, self.P = update(self.x, self.P, z, R, _H_POS)
         return nis, True
@@ -97,7 +97,7 @@ class GroundFilter:
         z = np.array([v_n, v_e])
         R = np.eye(2) * sigma * sigma
         _, _, nis = innovation(self.x, self.P, z, R, _H_VEL)
-        if nis > gate:
+        if not nis <= gate:  # NaN fails too
             return nis, False
         self.x, self.P = update(self.x, self.P, z, R, _H_VEL)
         return nis, True
@@ -106,7 +106,7 @@ class GroundFilter:
         z = np.array([a_n, a_e])
         R = np.eye(2) * var
         _, _, nis = innovation(self.x, self.P, z, R, _H_ACC)
-        if nis > gate:
+        if not nis <= gate:  # NaN fails too
             return nis, False
         self.x, self.P = update(self.x, self.P, z, R, _H_ACC)
         return nis, True

@@ -34,6 +34,12 @@ D, U_SOG, U_STW, U_C, B, K = range(6)
 _FREE_DVL = np.array([False] * 4 + [True, True])
 _H1 = np.eye(6)[[D, U_SOG, U_C]]
 _H2 = np.eye(6)[[D, U_SOG]]
+#: Without a new fix there is no new distance: SOG (and the forecast) alone.
+_H_SOG = np.eye(6)[[U_SOG]]
+_H_SOG_C = np.eye(6)[[U_SOG, U_C]]
+#: A gap in the data longer than this (s) restarts the filter rather than stepping
+#: the whole gap on the 30 s grid.
+MAX_GAP = 3600.0
 _Q_B = 0.05**2 / 86_400.0
 _Q_K = 0.01**2 / 86_400.0
 
@@ -71,15 +77,26 @@ class PaperFilter:
     def next_time(self) -> float:
         return self.t + self.T
 
-    def cycle(self, A: float, d: float, sog: float, u_c: float | None, var_c: float) -> float:
-        """One sample time: time update with input A, then H1 or H2. Returns the NIS."""
+    def cycle(self, A: float, d: float | None, sog: float, u_c: float | None, var_c: float) -> float:
+        """One sample time: time update with input A, then H1 or H2 (without the
+        distance row when no new fix came: `d` None). Returns the NIS."""
         self.x, self.P = kf_predict(self.x, self.P, self.F, self.GQG, u=A, B=self.G)  # (20), (21)
         self.t += self.T
-        if u_c is None:
-            z, H, R = np.array([d, sog]), _H2, np.diag([self.sigma_d**2, self.sigma_sog**2])
+        rows, zs, rs = [], [], []
+        if d is not None:
+            zs.append(d)
+            rs.append(self.sigma_d**2)
+        zs.append(sog)
+        rs.append(self.sigma_sog**2)
+        if u_c is not None:
+            zs.append(u_c)
+            rs.append(var_c)
+        if d is not None:
+            H = _H1 if u_c is not None else _H2
         else:
-            z, H = np.array([d, sog, u_c]), _H1
-            R = np.diag([self.sigma_d**2, self.sigma_sog**2, var_c])
+            H = _H_SOG_C if u_c is not None else _H_SOG
+        z, R = np.array(zs), np.diag(rs)
+        del rows
         _, _, nis = innovation(self.x, self.P, z, R, H)
         self.x, self.P = update(self.x, self.P, z, R, H)  # (22)–(25)
         return nis
@@ -113,6 +130,7 @@ class PaperModel:
         self._d = 0.0
         self.dvl_updates = 0
         self.last_nis: float | None = None
+        self.restarts = 0
 
     @property
     def ready(self) -> bool:
@@ -122,6 +140,12 @@ class PaperModel:
         """Run every sample time up to t; the NIS of each update."""
         out = []
         f = self.f
+        if f is not None and t - f.t > MAX_GAP:
+            # Hours without data: the paper's filter starts again at the next SOG.
+            self.f = f = None
+            self._fix = self._used_fix = self._sog = None
+            self._d = 0.0
+            self.restarts += 1
         while f is not None and f.next_time() <= t:
             sog = self._sog
             new_fix = self._fix is not None and (self._used_fix is None or self._fix[0] > self._used_fix[0])
@@ -134,7 +158,7 @@ class PaperModel:
             d = self._distance()
             if d is not None:
                 self._d = d
-            nis = f.cycle(self._A, self._d, sog[1], self._u_c, self.cfg.forecast_sigma**2)
+            nis = f.cycle(self._A, d, sog[1], self._u_c, self.cfg.forecast_sigma**2)
             out.append(nis)
             self.last_nis = nis
             self._u_c = None
@@ -146,7 +170,15 @@ class PaperModel:
             return None
         self._used_fix = fix
         if used is None:
-            return self._d
+            # The first fix starts the distance: d is measured from here on.
+            f = self.f
+            if f is not None:
+                f.x[D] = 0.0
+                f.P[D, :] = 0.0
+                f.P[:, D] = 0.0
+                f.P[D, D] = f.sigma_d**2
+            self._d = 0.0
+            return None
         return self._d + _haversine(used[1], used[2], fix[1], fix[2])
 
     def position(self, t: float, lat: float, lon: float) -> None:

@@ -1,8 +1,9 @@
 """`mode = "vector"`: STW = ground velocity − current, as vectors (ESTIMATORS.md §1).
 
-The ground motion (`ground.GroundFilter`) comes from GNSS and the IMU; the current, the
-leeway and the log's error (`current.CurrentFilter`) from forecasts, from heading vs
-course and from the log (consider update). Their errors are independent to first order
+The ground motion (`ground.GroundFilter`) comes from GNSS and the IMU; the current and
+the leeway (`current.CurrentFilter`) from forecasts and from heading vs course; the
+log's offset (`dvl.LogCalibration`) from the log against its own copy of the current,
+which never flows back. Their errors are independent to first order
 (different sensors), so the STW covariance is the sum of the two 2×2 blocks:
     w = v_g − c,  P_w = P_v + P_c,  STW = |w|,  σ_STW² = ŵᵀ P_w ŵ
     stw_long = w·x̂,  stw_trans = w·ŷ   (x̂ ahead, ŷ to starboard, from the heading)

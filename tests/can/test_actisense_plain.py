@@ -190,3 +190,26 @@ def test_a_recording_keeps_the_gateway_lines_and_replays_through_the_same_decode
     msg = json.loads(raw.data)
     assert msg["meta"] == {"format": "actisense_plain"}
     assert bytes.fromhex(msg["data"]).startswith(b"2020-08-22T13:52:36.949Z,2,65280,29,255,8,")
+
+
+def test_a_whole_message_makes_only_nearby_frames_duplicates(make_health):
+    """One reassembled 129029 does not silence the same PGN's frames an hour later."""
+    import struct
+
+    payload = struct.pack("<BHIqqq", 1, 19000, 432000000, int(54.0 * 1e16), int(7.0 * 1e16), 10 * 10**6)
+    payload += bytes([0x10, 0xFC, 12]) + struct.pack("<hhi", 90, 150, 4000) + b"\x00"
+    frames = [bytes([0, 43]) + payload[:6]] + [bytes([i]) + payload[6 + 7 * (i - 1):6 + 7 * i] for i in range(1, 7)]
+    hexes = lambda b: ",".join(f"{x:02x}" for x in b)  # noqa: E731
+    lines = [f"2024-01-01T12:00:00.000Z,3,129029,160,255,43,{hexes(payload)}"]
+    padded = [fr.ljust(8, b"\xff") for fr in frames]
+    lines += [f"2024-01-01T13:00:00.{i:03d}Z,3,129029,160,255,8,{hexes(fr)}" for i, fr in enumerate(padded)]
+    health = make_health("mix")
+    ms = _decode(io.BytesIO(("\n".join(lines) + "\n").encode()), "mix", health)
+    assert [m.kind for m in ms] == ["position", "position"]
+    assert health.counters.get("duplicates.fast_frames", 0) == 0
+
+
+def test_an_impossible_time_of_day_is_a_bad_time(make_health):
+    health = make_health("bad")
+    ms = _decode(io.BytesIO(GOOD + GOOD.replace(b"T12:00", b"T24:30") + GOOD), "bad", health)
+    assert health.counters["rejected.bad_time"] == 1 and len(ms) == 2

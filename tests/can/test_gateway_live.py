@@ -141,3 +141,23 @@ def test_ydwg_raw_over_tcp_decodes_like_its_log():
         assert all(m.t == NOW for m in hdg)
 
     asyncio.run(main())
+
+
+def test_live_pcdin_with_a_wrong_checksum_is_rejected():
+    from edged_can.formats import Bad, pcdin
+
+    good = _pcdin()
+    assert pcdin.frame(good)
+    with pytest.raises(Bad) as bad:
+        pcdin.frame(good[:-2] + b"00")
+    assert bad.value.reason == "checksum"
+
+
+def test_an_over_long_line_is_dropped_to_its_end():
+    from edged_can.gateway import _Lines
+
+    health = ComponentHealth("g", "input", "n2k_gateway", ManualClock(NOW))
+    lines = _Lines(health, 80)  # HDG (68 bytes) fits, 100 bytes do not
+    assert lines.feed(b"X" * 100) == []
+    assert lines.feed(b"junk,tail-of-long-line\n" + HDG + b"\n") == [HDG]
+    assert health.counters["rejected.too_long"] == 1

@@ -209,3 +209,51 @@ def test_heading_that_disagrees_with_course_is_gated():
     assert h["innovation"]["heading_course"]["gated"] == h["rejected"]["heading_course.gate"]
     # The along-ship current (the forecasts' business) is not dragged to the ground speed.
     assert est[-1].values["stw"] > 8.0
+
+
+def _steady(n: int = 300, with_heading: bool = True):
+    """n seconds at 5 m/s toward north: SOG/COG, ROT and a log; optionally a heading."""
+    for k in range(n):
+        t = T0 + k
+        yield Measurement("velocity_ground", "gnss", t, {"sog": 5.0, "cog": 0.0})
+        yield Measurement("yaw_rate", "gyro", t + 0.1, {"r": 0.0})
+        if with_heading:
+            yield Measurement("heading", "gyro", t + 0.2, {"heading": 0.0})
+        yield Measurement("water_speed", "log", t + 0.5, {"stw_long": 5.3})
+
+
+def test_impossible_values_are_rejected_not_believed():
+    c = core()
+    ms = list(_steady(120))
+    ms.insert(50, Measurement("accel_body", "imu", T0 + 20.3, {"ax": 1e308, "ay": 1e308, "az": 0.0}))
+    ms.insert(60, Measurement("position", "gnss", T0 + 25.3, {"lat": 95.0, "lon": 7.0}))
+    ms.insert(70, Measurement("current", "shore", T0 + 30.3, {"set": 0.0, "drift": 1e6}))
+    ms.insert(80, Measurement("current", "shore", T0 + 35.3, {"set": 0.0, "drift": -1.0}))
+    est = run(c, ms)
+    r = c.health()["rejected"]
+    assert r["accel_body.implausible"] == 1 and r["position.implausible"] == 1 and r["current.implausible"] == 2
+    assert all(math.isfinite(e.values["stw"]) and e.values["stw"] < 7.0 for e in est)
+
+
+def test_a_rate_sensor_without_a_heading_does_not_mean_turning():
+    c = core()
+    run(c, _steady(300, with_heading=False))
+    assert c.health()["rejected"].get("water_speed.turning", 0) == 0
+
+
+def test_a_forecast_older_than_its_max_age_when_the_filter_starts_is_dropped():
+    c = core(forecast_max_age=600.0)
+    ms = [Measurement("current", "shore", T0 - 3600, {"set": 0.0, "drift": 2.0})] + list(_steady(60))
+    est = run(c, ms)
+    assert c.health()["rejected"]["current.stale"] == 1
+    assert est[-1].values["stw_std"] > 0.5  # no current known
+
+
+def test_paper_mode_without_positions_follows_sog_and_survives_a_gap():
+    c = core(mode="paper")
+    est = run(c, _steady(600))
+    assert est[-1].values["sog"] == pytest.approx(5.0, abs=0.1)
+    later = [Measurement(m.kind, m.source, m.t + 365 * 86400.0, m.values) for m in _steady(120)]
+    est = run(c, later)  # a year later: restarted, not stepped through on the 30 s grid
+    assert est and est[-1].values["sog"] == pytest.approx(5.0, abs=0.3)
+    assert c.model.restarts == 1

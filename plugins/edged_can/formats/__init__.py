@@ -63,6 +63,15 @@ def can_id(prio: int, pgn: int, src: int, dst: int) -> int:
     return ((prio & 0x7) << 26) | ((pgn & 0x3FFFF) << 8) | (src & 0xFF)
 
 
+def check_sum(body: bytes, given: bytes) -> None:
+    """An NMEA 0183 checksum (XOR of the bytes between `$` and `*`), or `Bad("checksum")`."""
+    x = 0
+    for b in body:
+        x ^= b
+    if x != int(given, 16):
+        raise Bad("checksum", f"checksum {given.decode()} but the sentence's is {x:02X}")
+
+
 #: The format modules, in the order files are sniffed (candump has its own module).
 MODULES = ("actisense_plain", "ydwg_raw", "ikonvert")
 

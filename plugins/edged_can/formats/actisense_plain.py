@@ -55,6 +55,8 @@ def _day(date: bytes) -> float:
 
 def _time(m: re.Match[bytes]) -> float:
     date, hh, mm, ss, zone = m.group(1, 2, 3, 4, 5)
+    if int(hh) > 23 or int(mm) > 59 or float(ss) >= 61.0:
+        raise ValueError("no such time of day")
     base = _day(date)
     t = base + int(hh) * 3600 + int(mm) * 60 + float(ss)
     if zone and zone != b"Z":

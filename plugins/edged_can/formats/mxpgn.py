@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import re
 
-from . import Bad, Frame, Message, can_id
+from . import Bad, Frame, Message, can_id, check_sum
 
 NAME = "mxpgn"
-_SENTENCE = re.compile(rb"\$MXPGN,([0-9A-Fa-f]{6}),([0-9A-Fa-f]{4}),((?:[0-9A-Fa-f]{2}){1,8})\*[0-9A-Fa-f]{2}")
+_SENTENCE = re.compile(rb"\$(MXPGN,([0-9A-Fa-f]{6}),([0-9A-Fa-f]{4}),((?:[0-9A-Fa-f]{2}){1,8}))\*([0-9A-Fa-f]{2})")
 MAX_PGN = 0x1FFFF
 
 
@@ -26,8 +26,9 @@ def frame(data: bytes) -> list[Frame | Message]:
     m = _SENTENCE.fullmatch(data.strip())
     if m is None:
         raise Bad("bad_line", f"not a $MXPGN sentence: {data[:60]!r}")
-    pgn, attr = int(m.group(1), 16), int(m.group(2), 16)
-    payload = bytes.fromhex(m.group(3).decode("ascii"))[::-1]
+    check_sum(m.group(1), m.group(5))
+    pgn, attr = int(m.group(2), 16), int(m.group(3), 16)
+    payload = bytes.fromhex(m.group(4).decode("ascii"))[::-1]
     if pgn > MAX_PGN:
         raise Bad("bad_pgn", f"$MXPGN PGN 0x{pgn:x} is beyond NMEA 2000's 0x1FFFF")
     if (attr >> 8) & 0xF != len(payload):
