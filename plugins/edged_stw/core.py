@@ -241,7 +241,7 @@ class StwCore:
             self._pending_forecast = (t, set_, drift, sigma)
             return
         if isinstance(m, PaperModel):
-            m.forecast(set_, drift)
+            m.forecast(t, set_, drift)
             self._forecast_t = t
             return
         # Forecasts closer together than their errors decorrelate count for less.
@@ -296,7 +296,7 @@ class StwCore:
             self.rejected["water_speed.turning"] += 1
             return
         if isinstance(m, PaperModel):
-            nis, used = m.dvl(z, DVL_GATE)
+            nis, used = m.dvl(t, z, DVL_GATE)
         else:
             est = m.estimate(t, self._fresh_heading(t)) if m.ready else None
             if est is None or est["stw"] < self.cfg.min_speed:

@@ -17,8 +17,8 @@ grid; the forecast enters as the paper assumes it, along the track: its speed, s
 by whether it follows or heads the vessel. The paper's |a| cannot decelerate
 (ESTIMATORS.md §1): this mode reproduces the paper, it is not the default.
 
-Two more states, [b, k], fit the Doppler log as dvl = (1 + k)·U_stw + b by a consider
-update that leaves the paper's four states as the paper has them.
+The Doppler log is fitted beside it, not in it (`dvl.LogCalibration`, as in `vector`
+mode, along the course): the paper's four states stay exactly the paper's.
 """
 
 from __future__ import annotations
@@ -28,31 +28,29 @@ import math
 import numpy as np
 from filterpy.kalman import predict as kf_predict
 
-from .gating import consider_update, innovation, update
+from .dvl import LogCalibration
+from .gating import innovation, update
 
-D, U_SOG, U_STW, U_C, B, K = range(6)
-_FREE_DVL = np.array([False] * 4 + [True, True])
-_H1 = np.eye(6)[[D, U_SOG, U_C]]
-_H2 = np.eye(6)[[D, U_SOG]]
+D, U_SOG, U_STW, U_C = range(4)
+_H1 = np.eye(4)[[D, U_SOG, U_C]]
+_H2 = np.eye(4)[[D, U_SOG]]
 #: Without a new fix there is no new distance: SOG (and the forecast) alone.
-_H_SOG = np.eye(6)[[U_SOG]]
-_H_SOG_C = np.eye(6)[[U_SOG, U_C]]
+_H_SOG = np.eye(4)[[U_SOG]]
+_H_SOG_C = np.eye(4)[[U_SOG, U_C]]
 #: A gap in the data longer than this (s) restarts the filter rather than stepping
 #: the whole gap on the 30 s grid.
 MAX_GAP = 3600.0
-_Q_B = 0.05**2 / 86_400.0
-_Q_K = 0.01**2 / 86_400.0
 
 
 def paper_matrices(T: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """F, G and G_w of eq. (18), padded with the log's two constant states."""
-    F = np.eye(6)
+    """F, G and G_w of eq. (18)."""
+    F = np.eye(4)
     F[D, U_SOG] = T
     F[U_STW, U_STW] = 0.0
     F[U_STW, U_SOG] = 1.0
     F[U_STW, U_C] = -1.0
-    G = np.array([0.5 * T * T, T, T, 0.0, 0.0, 0.0])
-    Gw = np.zeros((6, 2))
+    G = np.array([0.5 * T * T, T, T, 0.0])
+    Gw = np.zeros((4, 2))
     Gw[D, 0], Gw[U_SOG, 0], Gw[U_STW, 0], Gw[U_C, 1] = 0.5 * T * T, T, T, 1.0
     return F, G, Gw
 
@@ -61,16 +59,14 @@ class PaperFilter:
     """The paper's estimator on its own grid t0 + k·T."""
 
     def __init__(self, t0: float, sog: float, T: float, sigma_a: float, sigma_c: float,
-                 sigma_d: float, sigma_sog: float, scale_prior: float) -> None:
+                 sigma_d: float, sigma_sog: float) -> None:
         self.t = t0
         self.T = T
-        self.x = np.array([0.0, sog, sog, 0.0, 0.0, 0.0])
-        self.P = np.diag([sigma_d**2, sigma_sog**2, 1.0, 1.0, 1.0, scale_prior**2])
+        self.x = np.array([0.0, sog, sog, 0.0])
+        self.P = np.diag([sigma_d**2, sigma_sog**2, 1.0, 1.0])
         self.F, self.G, Gw = paper_matrices(T)
         Q = np.diag([sigma_a**2, sigma_c**2])
         self.GQG = Gw @ Q @ Gw.T
-        self.GQG[B, B] = _Q_B * T
-        self.GQG[K, K] = _Q_K * T if scale_prior > 0.0 else 0.0  # no scale fit: k stays 0
         self.sigma_d = sigma_d
         self.sigma_sog = sigma_sog
 
@@ -101,19 +97,6 @@ class PaperFilter:
         self.x, self.P = update(self.x, self.P, z, R, H)  # (22)–(25)
         return nis
 
-    def dvl(self, z: float, var: float, gate: float) -> tuple[float, bool]:
-        H = np.zeros(6)
-        H[U_STW] = 1.0 + self.x[K]
-        H[B] = 1.0
-        H[K] = self.x[U_STW]
-        h = (1.0 + self.x[K]) * self.x[U_STW] + self.x[B]
-        nis = float((z - h) ** 2 / (H @ self.P @ H + var))
-        if not math.isfinite(nis) or nis > gate:
-            return nis, False
-        zl = np.array([z - h + H @ self.x])
-        self.x, self.P = consider_update(self.x, self.P, zl, np.array([[var]]), H[None, :], _FREE_DVL)
-        return nis, True
-
 
 class PaperModel:
     """Feeds the paper's filter as the paper does: the latest samples at each T."""
@@ -128,9 +111,9 @@ class PaperModel:
         self._A = 0.0
         self._u_c: float | None = None
         self._d = 0.0
-        self.dvl_updates = 0
         self.last_nis: float | None = None
         self.restarts = 0
+        self.log: LogCalibration | None = None
 
     @property
     def ready(self) -> bool:
@@ -189,22 +172,29 @@ class PaperModel:
         if self.f is None:
             c = self.cfg
             self.f = PaperFilter(t, sog, c.paper_period, c.accel_sigma, c.paper_sigma_c,
-                                 c.position_sigma, c.sog_sigma, c.dvl_scale_prior if c.dvl_fit_scale else 0.0)
+                                 c.position_sigma, c.sog_sigma)
             self._used_sog_t = t
+            if self.log is None:
+                self.log = LogCalibration(t, c.current_fast_q, c.current_rate_sigma, c.current_prior_sigma,
+                                          c.current_sigma_max, c.dvl_scale_prior, c.dvl_fit_scale)
 
     def accel(self, ax: float, ay: float) -> None:
         self._A = math.hypot(ax, ay)  # the paper's total acceleration |a|
 
-    def forecast(self, set_rad: float, drift: float) -> None:
+    def forecast(self, t: float, set_rad: float, drift: float) -> None:
         cog = self._sog[2] if self._sog is not None else set_rad
         self._u_c = drift if math.cos(set_rad - cog) >= 0.0 else -drift
+        if self.log is not None:
+            self.log.forecast(t, drift * math.cos(set_rad), drift * math.sin(set_rad), self.cfg.forecast_sigma**2)
 
-    def dvl(self, z: float, gate: float) -> tuple[float | None, bool]:
-        if self.f is None:
+    def dvl(self, t: float, z: float, gate: float) -> tuple[float | None, bool]:
+        """The log against the ground speed along the course and the log fit's current."""
+        if self.log is None or self._sog is None:
             return None, False
-        nis, used = self.f.dvl(z, self.cfg.dvl_sigma**2, gate)
-        self.dvl_updates += used
-        return nis, used
+        _, sog, cog = self._sog
+        ahead = np.array([math.cos(cog), math.sin(cog)])
+        var = self.cfg.dvl_sigma**2 + self.cfg.sog_sigma**2
+        return self.log.reading(t, z, ahead, sog * ahead, var, gate)
 
     def estimate(self, t: float) -> dict | None:
         f = self.f
@@ -222,12 +212,8 @@ class PaperModel:
             "current_set": None,
             "current_along": float(x[U_C]),
         }
-        if self.dvl_updates:
-            out["dvl_bias"] = float(x[B])
-            fit_scale = self.cfg.dvl_fit_scale
-            out["dvl_scale"] = 1.0 + float(x[K]) if fit_scale else None
-            out["dvl_std"] = {"bias": math.sqrt(max(P[B, B], 0.0)),
-                              "scale": math.sqrt(max(P[K, K], 0.0)) if fit_scale else None}
+        if self.log is not None:
+            out.update(self.log.values())
         return out
 
 

@@ -171,6 +171,8 @@ def test_paper_mode_runs_on_its_grid_and_drifts_as_documented():
     assert last["mode"] == "paper" and last["stw_long"] is None and last["current_set"] is None
     # |a| cannot decelerate: the paper's estimate sits above the truth.
     assert np.mean(errors(est, 10.0, 600)) > 0.0
+    # The log is fitted beside the paper's filter, not against its jumps: +0.3 found.
+    assert last["dvl_bias"] == pytest.approx(0.3, abs=3 * last["dvl_std"]["bias"])
 
 
 def test_replay_equals_bitwise_for_same_input():
