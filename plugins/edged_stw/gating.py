@@ -19,25 +19,6 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.nda
     return kf_update(x, P, z, R, H)
 
 
-def consider_update(
-    x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray, free: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """An update that may change only the states in `free` (a boolean mask).
-
-    The Doppler log must never move the speed estimate, yet its own error states are
-    correlated with the current's error: the full gain is computed and its rows for the
-    other states set to zero. Each row of the optimal gain is optimal on its own, so
-    the free states get their best update; the Joseph form keeps P right for any gain.
-    """
-    S = H @ P @ H.T + R
-    K = np.linalg.solve(S.T, (P @ H.T).T).T
-    K[~free, :] = 0.0
-    x = x + K @ (z - H @ x)
-    I_KH = np.eye(x.size) - K @ H
-    P = I_KH @ P @ I_KH.T + K @ R @ K.T
-    return x, 0.5 * (P + P.T)
-
-
 def cap_variance(P: np.ndarray, idx: slice | list[int], var_max: float) -> np.ndarray:
     """Scale rows and columns `idx` so that no variance there exceeds `var_max`.
 
