@@ -115,11 +115,15 @@ def test_nmea2000_wrapped_in_0183_framing():
     assert Nmea0183Input.sniff(mixed)
 
 
-def test_shared_ikonvert_log_is_refused_by_replay(capsys):
+def test_shared_ikonvert_log_is_not_ours_but_replays(capsys):
+    """Not claimed as NMEA 0183 (no `unknown.PDGY` counts): the CAN input reads it."""
     path = LOGS.parent / "n2k" / "canboat__samples__ikonvert.log"
     if not path.is_file():
         pytest.skip("shared data absent")
     from edged.cli import main
 
-    assert main(["replay", str(path), "--no-zenoh", "--no-progress"]) == 2
-    assert "format not recognised" in capsys.readouterr().err
+    with path.open("rb") as f:
+        assert not Nmea0183Input.sniff(f.read(4096))
+    assert main(["replay", str(path), "--no-zenoh", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "pgn.127250" in out and "unknown.PDGY" not in out
