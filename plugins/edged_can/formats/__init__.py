@@ -23,6 +23,7 @@ import importlib
 import re
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Any, Callable
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,6 +62,20 @@ def can_id(prio: int, pgn: int, src: int, dst: int) -> int:
     if pf < 240:
         pgn = (pgn & 0x3FF00) | (dst & 0xFF)
     return ((prio & 0x7) << 26) | ((pgn & 0x3FFFF) << 8) | (src & 0xFF)
+
+
+def rejecter(health: Any, prefix: str = "") -> Callable[[str, str], None]:
+    """`reject(reason, message)` for a reader: counts `rejected.<reason>` every time and
+    logs the first message of each reason (a million bad lines: one warning each)."""
+    reported: set[str] = set()
+
+    def reject(reason: str, message: str) -> None:
+        health.count("rejected." + reason)
+        if reason not in reported:
+            reported.add(reason)
+            health.error(f"{prefix}{message} (further such lines counted as rejected.{reason})")
+
+    return reject
 
 
 def check_sum(body: bytes, given: bytes) -> None:

@@ -23,7 +23,7 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
-from . import Bad, Frame, Message, can_id
+from . import Bad, Frame, Message, can_id, rejecter
 
 NAME = "actisense_plain"
 _LINE = re.compile(
@@ -68,13 +68,7 @@ def _time(m: re.Match[bytes]) -> float:
 
 def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
     accept = TimeWindow(limits_of(options) if options is not None else limits_of(None)).accept
-    reported: set[str] = set()
-
-    def reject(reason: str, message: str) -> None:
-        health.count("rejected." + reason)
-        if reason not in reported:
-            reported.add(reason)
-            health.error(f"{message} (further such lines counted as rejected.{reason})")
+    reject = rejecter(health, f"{source}: ")
 
     meta = {"format": NAME}
     for lineno, line in enumerate(stream, 1):

@@ -44,7 +44,7 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
-from . import Bad, Message
+from . import Bad, Message, rejecter
 from .ydwg_raw import DAY_MS, HOLD, date_day, day_of
 
 NAME = "ikonvert"
@@ -92,13 +92,7 @@ def _utc_ms(pgn: int, b64: bytes, earliest: float, latest: float) -> int | None:
 def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
     limits = limits_of(options)
     accept = TimeWindow(limits).accept
-    reported: set[str] = set()
-
-    def reject(reason: str, message: str) -> None:
-        health.count("rejected." + reason)
-        if reason not in reported:
-            reported.add(reason)
-            health.error(f"{source}: {message} (further such lines counted as rejected.{reason})")
+    reject = rejecter(health, f"{source}: ")
 
     no_date = (
         f"no date for the gateway's timer: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "

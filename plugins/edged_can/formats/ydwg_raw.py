@@ -36,7 +36,7 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
-from . import Bad, Frame
+from . import Bad, Frame, rejecter
 
 NAME = "ydwg_raw"
 _LINE = re.compile(rb"\s*(\d{2}):(\d{2}):(\d{2})\.(\d{3}) ([RT]) ([0-9A-Fa-f]{1,8})((?: [0-9A-Fa-f]{2})*) ?\s*")
@@ -150,13 +150,7 @@ def day_of(utc_ms: int, tod_ms: int) -> int:
 def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
     limits = limits_of(options)
     accept = TimeWindow(limits).accept
-    reported: set[str] = set()
-
-    def reject(reason: str, message: str) -> None:
-        health.count("rejected." + reason)
-        if reason not in reported:
-            reported.add(reason)
-            health.error(f"{source}: {message} (further such lines counted as rejected.{reason})")
+    reject = rejecter(health, f"{source}: ")
 
     no_date = (
         f"no date for its time of day: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
