@@ -78,6 +78,20 @@ def rejecter(health: Any, prefix: str = "") -> Callable[[str, str], None]:
     return reject
 
 
+DAY_MS = 86_400_000
+
+
+def n2k_utc_ms(days: int, secs_e4: int, earliest: float, latest: float) -> int | None:
+    """UTC (ms since 1970) of an NMEA 2000 date (days since 1970) and time of day
+    (0.0001 s), as PGNs 126992 and 129029 carry them; None when "not available", an
+    error code, beyond a leap second, or outside the plausible window [earliest, latest]
+    (UNIX s). The gateway formats that lack a date take theirs from this."""
+    if days >= 0xFFFD or secs_e4 >= 864_010_000:
+        return None
+    ms = days * DAY_MS + secs_e4 // 10
+    return ms if earliest * 1000.0 <= ms <= latest * 1000.0 else None
+
+
 def check_sum(body: bytes, given: bytes) -> None:
     """An NMEA 0183 checksum (XOR of the bytes between `$` and `*`), or `Bad("checksum")`."""
     x = 0

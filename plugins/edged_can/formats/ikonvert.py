@@ -44,7 +44,7 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
-from . import Bad, Message, rejecter
+from . import Bad, Message, n2k_utc_ms, rejecter
 from .ydwg_raw import DAY_MS, HOLD, date_day, day_of
 
 NAME = "ikonvert"
@@ -83,10 +83,7 @@ def _utc_ms(pgn: int, b64: bytes, earliest: float, latest: float) -> int | None:
         days, secs = p[1] | p[2] << 8, int.from_bytes(p[3:7], "little")
     else:
         return None
-    if days >= 0xFFFD or secs >= 864_010_000:  # not available / error / beyond a leap second
-        return None
-    ms = days * DAY_MS + secs // 10
-    return ms if earliest * 1000.0 <= ms <= latest * 1000.0 else None
+    return n2k_utc_ms(days, secs, earliest, latest)
 
 
 def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:

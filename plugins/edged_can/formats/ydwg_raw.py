@@ -36,14 +36,13 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
-from . import Bad, Frame, rejecter
+from . import DAY_MS, Bad, Frame, n2k_utc_ms, rejecter
 
 NAME = "ydwg_raw"
 _LINE = re.compile(rb"\s*(\d{2}):(\d{2}):(\d{2})\.(\d{3}) ([RT]) ([0-9A-Fa-f]{1,8})((?: [0-9A-Fa-f]{2})*) ?\s*")
 _SNIFF = re.compile(rb"\d{2}:\d{2}:\d{2}\.\d{3} [RT] [0-9A-Fa-f]{8}(?: [0-9A-Fa-f]{2}){0,8} ?\s*")
 #: Lines held while the date is not known yet.
 HOLD = 10_000
-DAY_MS = 86_400_000
 HALF_DAY_MS = DAY_MS // 2
 #: A step back in time this small is a gateway's jitter, not a time going backwards.
 BACK_TOLERANCE_MS = 1000
@@ -109,12 +108,12 @@ class DateFinder:
     """The UTC time (ms since 1970) the frames of a log state: PGN 126992 (one frame)
     or 129029 (days and seconds in its first two fast-packet frames, per source)."""
 
-    __slots__ = ("_first", "_earliest_ms", "_latest_ms")
+    __slots__ = ("_first", "_earliest", "_latest")
 
     def __init__(self, earliest: float, latest: float) -> None:
         self._first: dict[int, tuple[int, int, int]] = {}  # src -> (sequence, days, low 3 bytes of seconds)
-        self._earliest_ms = earliest * 1000.0
-        self._latest_ms = latest * 1000.0
+        self._earliest = earliest
+        self._latest = latest
 
     def push(self, can_id: int, data: bytes) -> int | None:
         pgn = (can_id >> 8) & 0x3FFFF  # both PGNs are PDU2: PS is part of the PGN
@@ -136,10 +135,7 @@ class DateFinder:
         return self._utc(first[1], first[2] | data[1] << 24)
 
     def _utc(self, days: int, secs_e4: int) -> int | None:
-        if days >= 0xFFFD or secs_e4 >= 864_010_000:  # not available / error / beyond a leap second
-            return None
-        ms = days * DAY_MS + secs_e4 // 10
-        return ms if self._earliest_ms <= ms <= self._latest_ms else None
+        return n2k_utc_ms(days, secs_e4, self._earliest, self._latest)
 
 
 def day_of(utc_ms: int, tod_ms: int) -> int:
