@@ -83,8 +83,9 @@ class CanDecoder:
         try:
             items = module.frame(bytes(raw.data))
         except formats.Bad as bad:
-            if bad.reason in ("gateway_message", "gateway_tx"):
-                health.count("gateway_messages" if bad.reason == "gateway_message" else "gateway_tx")
+            counter = formats.NOT_REJECTED.get(bad.reason)
+            if counter is not None:
+                health.count(counter)
             else:
                 health.count("rejected." + bad.reason)
                 health.error(f"{raw.source}: {bad}")

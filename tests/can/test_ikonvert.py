@@ -17,7 +17,8 @@ import pytest
 
 from edged.plugin import ReplayOptions
 from edged_can import candump
-from edged_can.formats import actisense_plain, can_id, ikonvert, ydwg_raw
+from edged_can.formats import Bad, actisense_plain, can_id, ikonvert, ydwg_raw
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 REAL = "canboat__samples__ikonvert.log"
@@ -182,7 +183,9 @@ def test_status_lines_are_counted_not_measurements_and_a_glued_one_is_split(make
     ms = _decode(log, health)
     assert health.counters["gateway_status"] == 2
     assert [m.kind for m in ms] == ["heading"]
-    assert ikonvert.frame(b"$PDGY,000000,4,,5,482,1,0") == []
+    with pytest.raises(Bad) as status:  # a live status line: counted by the decoder, not decoded
+        ikonvert.frame(b"$PDGY,000000,4,,5,482,1,0")
+    assert status.value.reason == "gateway_status"
     # a live stream's line, not split by `read`: the message, the status left out
     glued = _heading(1_500).rstrip() + b"$PDGY,000000,3,,5,483,1,0"
     assert [(x.pgn, x.src, len(x.payload)) for x in ikonvert.frame(glued)] == [(127250, 7, 8)]
@@ -224,7 +227,7 @@ def test_round_trip_candump_and_ikonvert_give_identical_measurements(make_health
     assert ikonvert.sniff(ik) and not candump.sniff(ik) and not actisense_plain.sniff(ik) and not ydwg_raw.sniff(ik)
     health = make_health("a")
     decoder = CanInput.make_decoder("bus", None, health)
-    a = [m for raw in CanInput.open_replay(io.BytesIO(dump_b), "bus", health, ReplayOptions()) for m in decoder.decode(raw)]
+    a = [m for raw in CANDUMP.open(io.BytesIO(dump_b), "bus", health, ReplayOptions()) for m in decoder.decode(raw)]
     b = _decode(ik, make_health("b"), source="bus")
     assert len(a) == 2 * 1000 + 100
     assert [(m.kind, m.source, round(m.t, 3), m.values, m.t_src) for m in a] == [

@@ -53,6 +53,15 @@ class Bad(ValueError):
         self.reason = reason
 
 
+#: `Bad` reasons that are no error: the gateway's own traffic, counted under these
+#: names (not `rejected.*`) and not decoded.
+NOT_REJECTED = {
+    "gateway_message": "gateway_messages",  # its answers and reports (BST A0, Actisense plain)
+    "gateway_tx": "gateway_tx",  # what was sent to it or by it (BST A1/94, $MXPGN)
+    "gateway_status": "gateway_status",  # iKonvert `$PDGY` status sentences
+}
+
+
 def can_id(prio: int, pgn: int, src: int, dst: int) -> int:
     """The 29-bit identifier of (priority, PGN, source, destination): ISO 11783-3.
 
@@ -101,12 +110,8 @@ def check_sum(body: bytes, given: bytes) -> None:
         raise Bad("checksum", f"checksum {given.decode()} but the sentence's is {x:02X}")
 
 
-#: The format modules, in the order files are sniffed (candump has its own module).
-MODULES = ("actisense_plain", "ydwg_raw", "ikonvert")
-
-
-def modules() -> list[ModuleType]:
-    return [importlib.import_module(f"{__name__}.{m}") for m in MODULES]
+# The formats a log of which `edged replay` reads are the readers of `edged_can.logs`
+# (entry point group `edged.logs`), each sniffed in its priority's order.
 
 
 _BY_NAME: dict[str, ModuleType | None] = {}

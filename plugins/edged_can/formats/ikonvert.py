@@ -196,8 +196,8 @@ def frame(data: bytes) -> list[Message]:
     """A record's message. `read` gives one sentence a record; a live stream's line may
     still hold a glued status sentence (`…=$PDGY,000000,…`): split as `read` does."""
     data = data.strip()
-    if data.startswith(b"$PDGY"):
-        return []  # the gateway's status: nothing on the bus
+    if data.startswith(b"$PDGY"):  # the gateway's status: nothing on the bus, counted
+        raise Bad("gateway_status", "an iKonvert status sentence")
     if not data.startswith(b"!PDGY,"):
         raise Bad("bad_line", f"not an iKonvert sentence at the line's start: {data[:60]!r}")
     if b"PDGY" in data[5:]:
