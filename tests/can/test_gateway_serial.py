@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import json
 import os
 import tty
 
@@ -92,6 +93,17 @@ def test_ngt1_on_a_serial_port_is_told_to_receive_all_and_decodes_like_a_bus():
         assert [m.source for m in hdg] == ["ngt.7", "ngt.7", "ngt.16"]
         assert all(m.values["heading"] == pytest.approx(1.512) for m in hdg)
         assert health.counters["bst_messages"] == 3 and health.counters["bytes_sent"] == len(sent)
+        # as recorded (the MCAP raw channel's JSON) and read back, the same measurements
+        from edged_mcap.channels import encode, raw_from_message
+
+        again = []
+        decoder = GatewayInput.make_decoder("ngt", None, ComponentHealth("r", "input", "can", ManualClock(NOW)))
+        for r in sink.raw:
+            ((topic, _, payload),) = encode(r)
+            back = raw_from_message(topic, json.loads(json.dumps(payload)))
+            assert back == r
+            again.extend(decoder.decode(back))
+        assert [(m.kind, m.source, m.values) for m in again] == [(m.kind, m.source, m.values) for m in sink.measurements]
         assert GatewayConfig(type="n2k_gateway", gateway="actisense_bst", transport="serial", device=device).baudrate == 115200
 
     asyncio.run(main())
