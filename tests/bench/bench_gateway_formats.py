@@ -8,6 +8,17 @@ frames; an iKonvert record is a whole message (a fast-packet PGN is several bus
 frames in one). The target is 20x NMEA 2000 bus saturation (1,700 frames/s) on one
 core.
 
+No real `$PCDIN` / `$MXPGN` log is at hand: those two are made in memory from the
+frames of the candump -l log (`_made_pcdin`, `_made_mxpgn`), each line with the NMEA
+4.10 TAG block time (`\\c:<UNIX ms>*hh\\`) a logger adds, and read as `edged replay`
+reads an NMEA 0183 file (`edged_nmea0183.logfile.read_log`, the records then through
+the CAN decoder). `$MXPGN`: one sentence a frame, as a MiniPlex sends them (our
+builder: the `nmea2000` package's MxpgnEncoder writes a fast-packet PGN whole in one
+sentence, which no MiniPlex does). `$PCDIN`: one sentence a message, the fast-packets
+reassembled by the package's canboat reassembler (all PGNs kept, which decoding and
+re-encoding them by field would not), the log twice (the second pass one span later)
+for about 50 k lines; a record is a message, as for iKonvert.
+
     .venv/bin/python tests/bench/bench_gateway_formats.py [--seconds S]
 """
 
@@ -25,6 +36,7 @@ from edged.plugin import ReplayOptions
 from edged_can import candump
 from edged_can.formats import actisense_plain, ikonvert, ydwg_raw
 from edged_can.plugin import CanInput
+from edged_nmea0183 import logfile
 
 SATURATION = 1700.0
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "n2k"
@@ -46,11 +58,77 @@ def _candump(stream, health):
     return candump.read(stream, "bench", health, bus_from_line=True)
 
 
+def _nmea0183(stream, health):
+    return logfile.read_log(stream, "bench", health, ReplayOptions())
+
+
+def _sentence(body: str, t: float) -> str:
+    """`\\c:<ms>*hh\\$<body>*hh`: a sentence with its TAG block time."""
+    def cs(text: str) -> str:
+        x = 0
+        for ch in text:
+            x ^= ord(ch)
+        return f"{text}*{x:02X}"
+
+    return "\\" + cs(f"c:{round(t * 1000)}") + "\\$" + cs(body) + "\n"
+
+
+def _frames(path: Path) -> list[tuple[float, int, bytes]]:
+    """(time, identifier, data) of every frame of a candump log, read by our reader."""
+    health = ComponentHealth("bench", "input", "can", ManualClock(0.0))
+    with path.open("rb") as f:
+        return [(r.t, r.meta["id"], bytes(r.data)) for r in candump.read(f, "bench", health, bus_from_line=False)]
+
+
+def _split(can_id: int) -> tuple[int, int, int]:
+    """(priority, PGN, source) of a 29-bit identifier (PDU1: the destination is not the PGN)."""
+    pgn = (can_id >> 8) & 0x3FFFF
+    if (pgn >> 8) & 0xFF < 240:
+        pgn &= 0x3FF00
+    return (can_id >> 26) & 7, pgn, can_id & 0xFF
+
+
+def _made_mxpgn(path: Path) -> bytes:
+    out = []
+    for t, can_id, data in _frames(path):
+        prio, pgn, src = _split(can_id)
+        attr = prio << 12 | len(data) << 8 | src
+        out.append(_sentence(f"MXPGN,{pgn:06X},{attr:04X},{data[::-1].hex().upper()}", t))
+    return "".join(out).encode()
+
+
+_ISO_TP = (60160, 60416)  # transport-protocol frames: passed on as they are
+
+
+def _made_pcdin(path: Path) -> bytes:
+    from nmea2000._canboat import Reassembler
+
+    frames = _frames(path)
+    span = frames[-1][0] - frames[0][0] + 1.0
+    out = []
+    for shift in (0.0, span):
+        join = Reassembler()
+        for t, can_id, data in frames:
+            prio, pgn, src = _split(can_id)
+            payload = data if pgn in _ISO_TP else join.push(pgn, data, src, 255, prio)
+            if payload:
+                out.append(_sentence(f"PCDIN,{pgn:06X},00000000,{src:02X},{payload.hex().upper()}", t + shift))
+    return "".join(out).encode()
+
+
+def _file(path: Path) -> bytes:
+    return path.read_bytes()
+
+
+CANDUMP_LOG = "canboat__samples__can0-1.pcap__DERIVED_candump-l.log"
+#: (format, real file, how its log is made from it, reader, what a record is)
 CASES = [
-    ("ydwg_raw", "canboat__samples__merrimac-ydwg-2020.raw", _ydwg, "frames"),
-    ("ikonvert", "canboat__samples__ikonvert.log", _ikonvert, "messages"),
-    ("actisense_plain", "canboat__samples__dirona-actisense-serial.raw", _plain, "frames"),
-    ("candump -l", "canboat__samples__can0-1.pcap__DERIVED_candump-l.log", _candump, "frames"),
+    ("ydwg_raw", "canboat__samples__merrimac-ydwg-2020.raw", _file, _ydwg, "frames"),
+    ("ikonvert", "canboat__samples__ikonvert.log", _file, _ikonvert, "messages"),
+    ("actisense_plain", "canboat__samples__dirona-actisense-serial.raw", _file, _plain, "frames"),
+    ("$PCDIN (made)", CANDUMP_LOG, _made_pcdin, _nmea0183, "messages"),
+    ("$MXPGN (made)", CANDUMP_LOG, _made_mxpgn, _nmea0183, "frames"),
+    ("candump -l", CANDUMP_LOG, _file, _candump, "frames"),
 ]
 
 
@@ -74,12 +152,12 @@ def main() -> int:
         print(f"{DATA} absent: nothing to measure")
         return 0
     print(f"{'format':<16} {'file':<52} {'records':>8} {'meas.':>7} {'per second':>20}  x saturation")
-    for name, fname, reader, unit in CASES:
+    for name, fname, make, reader, unit in CASES:
         path = DATA / fname
         if not path.is_file():
             print(f"{name:<16} {fname:<52} absent")
             continue
-        data = path.read_bytes()
+        data = make(path)
         best = float("inf")
         spent = 0.0
         reps = 0
