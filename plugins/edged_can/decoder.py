@@ -93,6 +93,8 @@ class CanDecoder:
         out: list[Measurement] = []
         for item in items:
             if isinstance(item, formats.Frame):
+                if item.tx:
+                    health.count("frames.tx")
                 out.extend(self.decode(RawRecord(raw.protocol, raw.source, raw.t, item.data,
                                                  {"id": item.can_id, "ext": True})))
             else:

@@ -121,7 +121,7 @@ def test_ydwg_raw_over_tcp_decodes_like_its_log():
 
     async def main() -> None:
         async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-            writer.write((line + b"\r\n") * 3)
+            writer.write((line + b"\r\n") * 2 + line.replace(b" R ", b" T ") + b"\r\n")  # one it sent itself
             await writer.drain()
             await reader.read()  # keep the connection until the test ends
 
@@ -138,6 +138,7 @@ def test_ydwg_raw_over_tcp_decodes_like_its_log():
         # Bytes 1-2: 0x3A16 = 14870 → 1.4870 rad; the last byte 0xFD & 3 = 1: magnetic (and
         # no variation heard yet, so it stays a magnetic heading).
         assert len(hdg) == 3 and hdg[0].source == "ydwg.19" and hdg[0].values["heading"] == pytest.approx(1.487)
+        assert health.counters["frames.tx"] == 1  # live as in a log
         assert all(m.t == NOW for m in hdg)
 
     asyncio.run(main())

@@ -32,6 +32,9 @@ class Frame:
 
     can_id: int
     data: bytes
+    #: A frame the gateway itself sent onto the bus (YDWG `T`): decoded alike, and
+    #: counted `frames.tx` by the decoder, live and in replay.
+    tx: bool = False
 
 
 @dataclass(frozen=True, slots=True)

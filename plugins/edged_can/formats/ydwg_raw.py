@@ -1,7 +1,7 @@
 """Yacht Devices RAW (YDWG-02, YDEN-02, YDNR): `hh:mm:ss.mmm R|T <id> xx xx …`, one CAN frame a line.
 
 `R` is a frame the gateway received from the bus, `T` one it sent onto it: both are
-bus traffic and decoded alike (`T` lines are also counted `frames.tx`). The id is the
+bus traffic and decoded alike (`T` lines are also counted `frames.tx`, by the decoder). The id is the
 29-bit identifier in 8 hex digits, the data 0-8 bytes in hex.
 
 Time is a UTC time of day only (the gateway's clock, set from the bus). The date:
@@ -160,16 +160,14 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
         health.error(f"replay date {text!r} is not YYYY-MM-DD: ignored")
     finder = DateFinder(limits.earliest, limits.latest) if base is None else None
     clock = DayClock()
-    pending: deque[tuple[int, bytes, bool, int]] = deque()
+    pending: deque[tuple[int, bytes, int]] = deque()
     meta = {"format": NAME}
 
-    def out(rel: int, s: bytes, tx: bool, lineno: int) -> RawRecord | None:
+    def out(rel: int, s: bytes, lineno: int) -> RawRecord | None:
         t = (base * DAY_MS + rel) / 1000.0  # type: ignore[operator]
         if not accept(t):
             reject(BAD_TIME, f"line {lineno}: time {s[:12]!r} cannot be true")
             return None
-        if tx:
-            health.count("frames.tx")
         return RawRecord("can", source, t, s, meta)
 
     for lineno, line in enumerate(stream, 1):
@@ -188,7 +186,6 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
         if rel is None:
             reject("time_backwards", f"line {lineno}: time {s[:12]!r} goes back more than {BACK_TOLERANCE_MS} ms")
             continue
-        tx = m.group(5) == b"T"
         if base is None:
             assert finder is not None
             try:
@@ -196,7 +193,7 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
             except ValueError:
                 utc = None
             if utc is None:
-                pending.append((rel, s, tx, lineno))
+                pending.append((rel, s, lineno))
                 if len(pending) > HOLD:
                     pending.popleft()
                     reject("no_date", no_date)
@@ -206,7 +203,7 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
                 r = out(*pending.popleft())
                 if r is not None:
                     yield r
-        r = out(rel, s, tx, lineno)
+        r = out(rel, s, lineno)
         if r is not None:
             yield r
     for _ in range(len(pending)):
@@ -225,4 +222,4 @@ def frame(data: bytes) -> list[Frame]:
     payload = bytes.fromhex(m.group(7).decode())
     if len(payload) > 8:
         raise Bad("bad_length", f"frame {ident.decode()} with {len(payload)} data bytes (a CAN frame has at most 8)")
-    return [Frame(can_id, payload)]
+    return [Frame(can_id, payload, m.group(5) == b"T")]
