@@ -25,7 +25,7 @@ comparison is at 1 ms.
 
 Who writes what (checked against our readers and the real gateways' logs in
 ../shared/data/n2k; `nmea2000` 2026.10.3):
-- candump: `Candump3Encoder` (`candump -l`: `(1717236900.000000) slcan0 09F11207#…`).
+- candump: `Candump3Encoder` (`candump -l`: `(1717236900.000000) slcan0 0DF01003#…`).
   As written. (`Candump1/2Encoder` write no time: a log of them replays at 0.0, counted
   `untimed`; not a round trip of times, so not used.)
 - Actisense plain, reassembled fast-packets (`len` > 8, canboat's PLAIN_FAST, Signal
@@ -39,7 +39,7 @@ Who writes what (checked against our readers and the real gateways' logs in
   (`PythonCanEncoder`: its fast-packet split, sequence counter and 0xFF padding).
 - Actisense plain, both (PLAIN_MIX_FAST): the two above, the reassembled line after
   its last frame; the decoder keeps one copy and counts the other.
-- Yacht Devices RAW: `CanFrameAsciiRawEncoder` (`10:15:00.000 R 0DF80503 00 2B …`):
+- Yacht Devices RAW: `CanFrameAsciiRawEncoder` (`10:15:00.060 R 0DF80503 00 2B …`):
   the real format as written (8 hex digit id, upper-case bytes, the last fast-packet
   frame padded with 0xFF as a sender pads it; no CR, which the reader does not need).
 - iKonvert `!PDGY`: `PdgyEncoder`. It writes the timer as `0.000` on every line: a
@@ -61,9 +61,16 @@ Who writes what (checked against our readers and the real gateways' logs in
   rightly). Fast-packet PGNs are therefore our builder's sentences, one per frame of
   the package's `PythonCanEncoder`. TAG blocks as for `$PCDIN`.
 
-Both directions: the real Yacht Devices log (all its 914 lines) read by our reader,
-its frames decoded by the package (`NMEA2000Decoder`, python-can messages) and written
-back by the package as candump and Actisense plain, give our measurements of the
+Time zones: the package's decoders stamp messages with naive local times
+(`datetime.fromtimestamp`), `Candump3Encoder` reads a naive time as local and
+`BasicStringEncoder` writes it as if UTC, so the two agree only on a UTC machine. Every
+message here is given its time explicitly (aware UTC; naive UTC for BasicString): the
+test does not depend on the machine's zone (it passes under TZ=America/New_York).
+
+Both directions: real logs (Yacht Devices RAW merrimac-ydwg-2020, all 914 lines; the
+candump -l can0-1 log, its first 2000) read by our readers, their frames decoded by
+the package (`NMEA2000Decoder`, python-can messages) and written back by the package
+as candump and Actisense plain (whole and frames), give our measurements of the
 original (`test_real_log_re_encoded_by_the_package_reads_back_identically`).
 """
 
@@ -73,7 +80,7 @@ import dataclasses
 import io
 import math
 from collections import Counter
-from datetime import date, datetime, time, timedelta, timezone
+from datetime import datetime, timedelta, timezone
 from functools import reduce
 from typing import Any, Callable, Iterable, Iterator
 
