@@ -5,16 +5,19 @@ a configuration schema (a pydantic model; unknown keys are errors), a lifecycle 
 runtime supervises, and health it reports. Three roles:
 
 - `InputPlugin`: owns a transport and a decoder; emits raw records and measurements.
-  Its class also says how to replay files of its format (`sniff`, `open_replay`) and
-  how to decode raw records again (`make_decoder`), so that replay uses the very
-  decoders the live input uses.
+  Its class also says how to decode raw records again (`make_decoder`), so that
+  replay uses the very decoders the live input uses.
 - `EstimatorPlugin`: makes a synchronous `EstimatorCore` (`step(record) -> [Estimate]`);
   the runtime hosts it in a worker with its own queue.
 - `OutputPlugin`: receives batches of records (raw, measurements, estimates, health).
 
+Beside the three roles, a `LogReader` reads the files of one log format for
+`edged replay` (`sniff`, `open`): one reader per format, whatever plugin it belongs to,
+so that the replay driver asks the readers and no input or output class.
+
 Plugins are discovered through the entry point groups `edged.inputs`,
-`edged.estimators` and `edged.outputs`; CLI subcommands a plugin implements are in
-`edged.commands`.
+`edged.estimators` and `edged.outputs`; log readers in `edged.logs`; CLI subcommands
+a plugin implements are in `edged.commands`.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ __all__ = [
     "EstimatorPlugin",
     "OutputPlugin",
     "ReplayOptions",
+    "LogReader",
     "Command",
 ]
 
@@ -210,14 +214,42 @@ class InputPlugin(Plugin):
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Decoder:
         raise NotImplementedError
 
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
-        """True when a file starting with `head` is of this input's format."""
-        return False
 
-    @classmethod
-    def open_replay(
-        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
+
+@runtime_checkable
+class LogReader(Protocol):
+    """Reads the files of one log format for `edged replay` (entry point group
+    `edged.logs`; the entry point's name is the reader's `name`).
+
+    The driver loads every installed reader to learn its `priority`, so the module
+    that holds a reader must be light: `sniff` needs a few regular expressions, and
+    the reading and decoding stack (numpy, cantools, the mcap library) is imported
+    by `open` and by the input's decoder, only for a file of this format.
+    """
+
+    #: The format's name: the entry point's, shown in "format not recognised".
+    name: str
+    #: The protocol of the raw records it yields ("can", "nmea0183"); "" when a file
+    #: carries many (an MCAP recording): each record's own protocol then says.
+    protocol: str
+    #: The type name of the input plugin whose `make_decoder` decodes its records
+    #: ("can"), so that a replay loads that one input and not all; None when the
+    #: records say themselves (MCAP). It is also the type of the file's health
+    #: component (the reader's `name` when None).
+    input: str | None
+    #: Sniff order, lower first, ties by name: a binary magic (MCAP 10) before the
+    #: CAN and gateway text formats (20-29), NMEA 0183 last (90), so that a file of
+    #: `$PCDIN`/`$MXPGN` sentences stays NMEA 0183's.
+    priority: int
+
+    def sniff(self, head: bytes) -> bool:
+        """True when a file starting with `head` (up to `edged.replay.HEAD_BYTES`) is
+        of this format. Never raises on any bytes (one that does is logged and
+        skipped: it does not decide for the other readers)."""
+        ...
+
+    def open(
+        self, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
     ) -> Iterator[RawRecord]:
         """Raw records of a log file in file order, stamped with the log's time.
 
@@ -228,7 +260,7 @@ class InputPlugin(Plugin):
         bad content. Records may carry other sources than `source` (an MCAP file holds
         many); each is decoded by the decoder of its own `protocol` and `source`.
         """
-        raise NotImplementedError
+        ...
 
 
 class EstimatorCore(Protocol):

@@ -1,7 +1,8 @@
 """Plugin discovery through entry points.
 
-A third party adds an input, estimator, output or command by installing a package
-that declares an entry point in one of these groups; edged itself registers its own
+A third party adds an input, estimator, output, log reader (`edged.plugin.LogReader`,
+one per file format `edged replay` reads) or command by installing a package that
+declares an entry point in one of these groups; edged itself registers its own
 plugins the same way (pyproject.toml), so there is no privileged built-in list.
 """
 
@@ -18,6 +19,8 @@ GROUPS = {
     "inputs": "edged.inputs",
     "estimators": "edged.estimators",
     "outputs": "edged.outputs",
+    #: reader objects (not classes) of log formats for `edged replay`
+    "logs": "edged.logs",
     "commands": "edged.commands",
 }
 
@@ -57,7 +60,7 @@ class Registry:
         return sorted(set(self._group(role)) | set(self.extra.get(role, {})))
 
     def get(self, role: str, name: str) -> Any:
-        """The plugin class (or command function) `name` of `role`."""
+        """The plugin class (command function, log reader) `name` of `role`."""
         extra = self.extra.get(role, {})
         if name in extra:
             return extra[name]

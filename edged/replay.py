@@ -1,10 +1,12 @@
 """Replay: recorded logs through the very same decoders, workers and outputs.
 
-Each file is recognised by content (`sniff` of the plugin classes), read by its
-plugin's `open_replay`, and the raw records of all files are merged in time order.
-Every raw record is published (so `--record` records it again) and decoded by the
-decoder of its protocol and source, made once and kept for the whole replay so that
-state (fast-packet reassembly, the date of an NMEA log) carries across files.
+Each file is recognised by content (the `sniff` of the log readers, entry point group
+`edged.logs`, in their priority order), read by its reader's `open`, and the raw
+records of all files are merged in time order. Every raw record is published (so
+`--record` records it again) and decoded by the decoder of its protocol and source:
+the `make_decoder` of the input plugin the reader names (`LogReader.input`), made
+once and kept for the whole replay so that state (fast-packet reassembly, the date
+of an NMEA log) carries across files.
 Time is the data's: the replay clock follows the records. `speed` 0 runs as fast as
 possible; N > 0 paces the records at N times real time.
 
@@ -35,7 +37,7 @@ from typing import Any, Awaitable, BinaryIO, Callable, Iterator
 
 from .clock import ReplayClock
 from .health import ComponentHealth
-from .plugin import Decoder, ReplayOptions
+from .plugin import Decoder, LogReader, ReplayOptions
 from .records import HealthRecord, RawRecord
 from .registry import Registry
 from .runtime import Runtime
@@ -54,7 +56,7 @@ MAX_WAIT = 10.0
 
 
 class UnknownFormat(ValueError):
-    """A file no installed plugin can read (names the file)."""
+    """A file no installed log reader can read (names the file)."""
 
 
 class CountingReader(io.RawIOBase):
@@ -87,31 +89,42 @@ class CountingReader(io.RawIOBase):
         super().close()
 
 
-def replay_readers(registry: Registry) -> Iterator[tuple[str, Any]]:
-    """Every plugin class (input or output) that can read files for replay, inputs
-    first, each loaded only when reached."""
-    for role in ("inputs", "outputs"):
-        for name, cls in registry.iter(role):
-            if callable(getattr(cls, "sniff", None)) and callable(getattr(cls, "open_replay", None)):
-                yield name, cls
+#: The priority of a reader whose `priority` is not an integer: after every other.
+LAST = 1 << 30
 
 
-def detect(path: Path, registry: Registry) -> tuple[str, Any]:
-    """The plugin class that reads `path`, recognised by its first bytes: the first
-    reader, in the registry's order, whose `sniff` says yes (the readers after it are
-    not even imported)."""
+def log_readers(registry: Registry) -> list[tuple[str, LogReader]]:
+    """Every installed log reader, in sniff order: `priority` (lower first), then name.
+
+    Each is loaded to learn its priority: a reader's module is light (DESIGN §4), the
+    decoding stacks are imported by `open` and by the decoders, for its files only."""
+    readers = []
+    for name, reader in registry.iter("logs"):
+        prio = getattr(reader, "priority", None)
+        if not isinstance(prio, int) or isinstance(prio, bool):
+            log.warning("log reader %s: priority %r is not an integer: sniffed last", name, prio)
+            prio = LAST
+        readers.append((prio, name, reader))
+    readers.sort(key=lambda r: (r[0], r[1]))
+    return [(name, reader) for _, name, reader in readers]
+
+
+def detect(path: Path, registry: Registry) -> tuple[str, LogReader]:
+    """The log reader of `path`, recognised by its first `HEAD_BYTES`: the first
+    reader, in priority order, whose `sniff` says yes."""
     try:
         with open(path, "rb") as f:
             head = f.read(HEAD_BYTES)
     except OSError as exc:
         raise UnknownFormat(f"{path}: cannot read: {exc.strerror or exc}") from None
-    for name, cls in replay_readers(registry):
+    readers = log_readers(registry)
+    for name, reader in readers:
         try:
-            if cls.sniff(head):
-                return name, cls
-        except Exception as exc:  # a plugin's sniff must not decide for the others
-            log.warning("plugin=%s sniff failed on %s: %s", name, path, exc)
-    kinds = ", ".join(n for n, _ in replay_readers(registry)) or "none installed"
+            if reader.sniff(head):
+                return name, reader
+        except Exception as exc:  # a reader's sniff must not decide for the others
+            log.warning("log reader %s: sniff failed on %s: %s", name, path, exc)
+    kinds = ", ".join(n for n, _ in readers) or "none installed"
     raise UnknownFormat(f"{path}: format not recognised (readers: {kinds})")
 
 
@@ -156,11 +169,12 @@ class Replayer:
         self._sleep = sleep
         self.stats = ReplayStats()
         self._decoders: dict[tuple[str, str], Decoder | None] = {}
-        #: protocol -> input class whose decoder reads it: first the inputs that read
-        #: the files (`_open`), so that a replay does not import every input plugin
-        #: (and its decoding stack); all inputs only for a protocol none of those speaks.
-        self._readers: dict[str, Any] = {}
-        self._protocols: dict[str, Any] | None = None
+        #: protocol -> type name of the input whose decoder reads it: the inputs the
+        #: readers of the files name (`_open`), so that a replay does not import every
+        #: input plugin (and its decoding stack); all inputs' `protocol` only for a
+        #: protocol none of those readers names (the records of an MCAP recording).
+        self._inputs: dict[str, str] = {}
+        self._protocols: dict[str, str] | None = None
         self._streams: list[CountingReader] = []
         self.total_bytes = 0
 
@@ -168,35 +182,50 @@ class Replayer:
         return self.rt.health.component(source, "input", type_)
 
     def _open(self, path: Path) -> Iterator[RawRecord]:
-        name, cls = detect(path, self.rt.registry)
-        protocol = getattr(cls, "protocol", "")
-        if protocol and callable(getattr(cls, "make_decoder", None)):
-            self._readers.setdefault(protocol, cls)
+        name, reader = detect(path, self.rt.registry)
+        input_type = getattr(reader, "input", None)
+        protocol = getattr(reader, "protocol", "")
+        if protocol and input_type:
+            self._inputs.setdefault(protocol, input_type)
         source = path.stem
         in_cfg = self.rt.config.inputs.get(source)
         f = CountingReader(open(path, "rb"))  # closed in run()
         self._streams.append(f)
         self.total_bytes += path.stat().st_size
-        health = self._health(source, name)
+        # The file's health component has the type of the input that decodes it
+        # ("can" for every CAN and gateway format), or the reader's name ("mcap").
+        health = self._health(source, input_type or name)
         opts = ReplayOptions(date=self.date, config=in_cfg, path=path)
         opts.time_limits = self.time_limits
-        return cls.open_replay(io.BufferedReader(f, 1 << 16), source, health, opts)
+        return reader.open(io.BufferedReader(f, 1 << 16), source, health, opts)
+
+    def _input_type(self, protocol: str) -> str | None:
+        """The type name of the input that decodes `protocol`: the one the readers of
+        the files name, else the first input (in name order) of that `protocol`."""
+        name = self._inputs.get(protocol)
+        if name is None:
+            if self._protocols is None:
+                self._protocols = {}
+                for n, c in self.rt.registry.iter("inputs"):
+                    self._protocols.setdefault(getattr(c, "protocol", ""), n)
+            name = self._protocols.get(protocol)
+        return name
 
     def _decoder(self, protocol: str, source: str) -> Decoder | None:
         key = (protocol, source)
         if key in self._decoders:
             return self._decoders[key]
-        cls = self._readers.get(protocol)
-        if cls is None:
-            if self._protocols is None:
-                self._protocols = {
-                    getattr(c, "protocol", ""): c for c in self.rt.registry.all("inputs").values()
-                }
-            cls = self._protocols.get(protocol)
         dec = None
+        type_name = self._input_type(protocol)
+        cls = None
+        if type_name is not None:
+            try:
+                cls = self.rt.registry.get("inputs", type_name)
+            except Exception as exc:  # a reader naming an input that is not installed
+                log.warning("no decoder for %s records of %s: input %s: %s", protocol, source, type_name, exc)
         if cls is not None:
             cfg = self.rt.config.inputs.get(source)
-            if cfg is not None and getattr(cfg, "type", None) != _type_name(self.rt.registry, cls):
+            if cfg is not None and getattr(cfg, "type", None) != type_name:
                 cfg = None
             try:
                 dec = cls.make_decoder(source, cfg, self._health(source, protocol))
@@ -341,10 +370,3 @@ class _QuietGC:
 
 def _t(r: RawRecord) -> float:
     return r.t
-
-
-def _type_name(registry: Registry, cls: Any) -> str | None:
-    for name, c in registry.iter("inputs"):
-        if c is cls:
-            return name
-    return None

@@ -1,23 +1,21 @@
-"""The `can` input plugin: live buses, candump replay, and the per-bus decoder."""
+"""The `can` input plugin: live buses and the per-bus decoder (its log readers, candump
+and the gateway formats, are in `logs`)."""
 
 from __future__ import annotations
 
 import asyncio
-from typing import TYPE_CHECKING, Any, BinaryIO, Callable, ClassVar, Iterator
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost
-from edged.plugin import InputPlugin, PluginContext, ReplayOptions
+from edged.plugin import InputPlugin, PluginContext
 from edged.records import RawRecord
-from edged.timecheck import limits_of
 
-from . import candump, formats
 from .config import CanConfig, default_config
 
 if TYPE_CHECKING:
     # python-can (the live bus) and the decoder (cantools, nmea2000) are imported when
-    # a bus is opened or a decoder made, not when `edged replay` loads this class only
-    # to ask whether it reads an NMEA 0183 log.
+    # a bus is opened or a decoder made, not when this class is loaded.
     import can
 
     from .bus import Sleep
@@ -101,28 +99,3 @@ class CanInput(InputPlugin):
         from .decoder import CanDecoder
 
         return CanDecoder(source, config if isinstance(config, CanConfig) else default_config(), health)
-
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
-        return candump.sniff(head) or any(f.sniff(head) for f in formats.modules())
-
-    @classmethod
-    def open_replay(
-        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
-    ) -> Iterator[RawRecord]:
-        if hasattr(stream, "peek"):
-            head = stream.peek(4096)[:4096]
-        elif stream.seekable():
-            head = stream.read(4096)
-            stream.seek(0)
-        else:
-            head = b""
-        if head and not candump.sniff(head):
-            for f in formats.modules():
-                if f.sniff(head):
-                    return f.read(stream, source, health, options)
-        # Without a configuration section for this file, the bus is the interface the
-        # log names, so files of one bus share one decoder (and their fast-packets).
-        return candump.read(
-            stream, source, health, bus_from_line=options.config is None, limits=limits_of(options)
-        )

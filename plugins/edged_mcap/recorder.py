@@ -1,4 +1,5 @@
-"""The MCAP recorder output (DESIGN §7) and the MCAP reader for replay.
+"""The MCAP recorder output (DESIGN §7); its files are read back for replay by
+`logs.MCAP` (entry point group `edged.logs`).
 
 Recording must never stop the daemon: a full disk, a failing card or a free-space
 floor stops *recording* only, with a health state saying why (`disk_low`,
@@ -43,21 +44,16 @@ from __future__ import annotations
 
 import errno
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, ClassVar, Iterator
+from typing import Any, BinaryIO, Callable, ClassVar
 
 import edged
 from edged.backoff import Backoff
-from edged.health import ComponentHealth
-from edged.plugin import OutputPlugin, PluginContext, ReplayOptions
-from edged.records import RawRecord
-from edged.timecheck import limits_of
+from edged.plugin import OutputPlugin, PluginContext
 
 from . import files
 from .channels import dumps, encode, to_ns
 from .config import GIB, McapConfig
 from .mcapfile import McapFile
-from .reading import MAGIC
-from .rawreader import read_raw
 
 __all__ = ["McapRecorder", "Opener", "numbered"]
 
@@ -244,18 +240,6 @@ class McapRecorder(OutputPlugin):
             "recording": f is not None,
             **({} if f else {"stopped": self._stopped}),
         }
-
-    # -- replay: reading recordings back ----------------------------------------------
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
-        return head.startswith(MAGIC)
-
-    @classmethod
-    def open_replay(
-        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
-    ) -> Iterator[RawRecord]:
-        """The recorded raw channels as RawRecords, exactly as they were recorded."""
-        return read_raw(stream, health, options.path or source, limits_of(options))
 
     # -- files ---------------------------------------------------------------------------
     def _target(self) -> Path:

@@ -1,4 +1,4 @@
-"""NMEA 0183 log files for `edged replay`: detection (`sniff`) and reading.
+"""NMEA 0183 log files for `edged replay`: reading (detection is `logs.sniff`'s).
 
 Reads in chunks through the same Framer as the live input, then stamps each line with
 the log's time (ReplayStamper). Counters as the live input (`lines`, `accepted`,
@@ -8,7 +8,6 @@ or epoch time outside the plausible window of edged.timecheck) and `assumed_date
 
 from __future__ import annotations
 
-import re
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
@@ -18,50 +17,16 @@ from edged.timecheck import TimeWindow, limits_of
 
 from .framer import Framer
 from .lines import BAD_TIME, NO_TIME, Framed
+from .logs import PROTOCOL
 from .reporting import ProblemReporter
 from .timeofday import ReplayStamper, parse_date_option
 
-PROTOCOL = "nmea0183"
 CHUNK = 1 << 16
-#: Lines `sniff` judges at most (a head of 4 KiB holds about 50 sentences).
-_SNIFF_LINES = 400
-#: iKonvert's `!PDGY` lines carry NMEA 2000 without an NMEA 0183 checksum: a log of
-#: them is the CAN input's (`edged_can.formats.ikonvert`), not ours.
-_N2K_ENCAPSULATED = (b"!PDGY,",)
 #: NMEA 2000 in checksummed NMEA 0183 sentences (SeaSmart `$PCDIN`, Shipmodul
 #: `$MXPGN`), alone or among other sentences: framed and timed here like any sentence,
 #: then handed to the CAN decoder (protocol "can", the gateway format in the meta,
 #: `edged_can.formats.pcdin` / `.mxpgn`), so they decode as the same data on a bus would.
 _TO_CAN = {b"$PCDIN,": "pcdin", b"$MXPGN,": "mxpgn"}
-#: The shape of an NMEA 0183 line, valid or not: an optional TAG block or UNIX-time
-#: prefix, `$` or `!`, an address of letters and digits, then a field or the checksum.
-_SHAPE = re.compile(rb"(?:\\[^\\]*\\|[0-9]+(?:\.[0-9]*)?[ \t]+)?([$!][A-Z0-9]{3,10})(?:,|\*[0-9A-Fa-f]{2}$)")
-_N2K_ADDRESSES = frozenset(p[:-1] for p in _N2K_ENCAPSULATED)
-
-
-def sniff(head: bytes) -> bool:
-    """True when most of the lines of `head` that are not comments are shaped like
-    NMEA 0183 sentences (`$`/`!`, an address, fields; optionally a TAG block or time
-    before). Their checksums are not judged here: a noisy stretch of bad checksums
-    at the start of a good log is the reader's to count, not a reason to refuse the
-    file. NMEA 2000 wrapped in 0183 framing counts against (another format)."""
-    lines = head.replace(b"\r", b"\n").split(b"\n")
-    if len(lines) > 1:
-        lines.pop()  # maybe cut in the middle
-    good = bad = 0
-    match = _SHAPE.match
-    for line in lines:
-        line = line.strip()
-        if not line or line[:1] == b"#":
-            continue
-        m = match(line)
-        if m is None or m.group(1) in _N2K_ADDRESSES:
-            bad += 1
-        else:
-            good += 1
-        if good + bad >= _SNIFF_LINES:
-            break
-    return good > 0 and good >= bad
 
 
 def meta_of(fr: Framed) -> dict[str, Any] | None:

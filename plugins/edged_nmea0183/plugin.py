@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import asyncio
-from typing import Any, BinaryIO, ClassVar, Iterator
+from typing import Any, ClassVar
 
 from edged.health import ComponentHealth
-from edged.plugin import InputPlugin, PluginContext, ReplayOptions
+from edged.plugin import InputPlugin, PluginContext
 from edged.records import RawRecord
 
 from .config import Nmea0183Config
 from .decoder import DecoderSettings, Nmea0183Decoder
 from .framer import Framer
 from .link import Sleep, TransportLink
-from .logfile import PROTOCOL, meta_of, read_log, sniff
+from .logfile import PROTOCOL, meta_of
 from .transports import make_transport
 
 
@@ -94,13 +94,3 @@ class Nmea0183Input(InputPlugin):
     @classmethod
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Nmea0183Decoder:
         return Nmea0183Decoder(source, health, DecoderSettings.from_config(config))
-
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
-        return sniff(head)
-
-    @classmethod
-    def open_replay(
-        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
-    ) -> Iterator[RawRecord]:
-        return read_log(stream, source, health, options)

@@ -22,6 +22,7 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 SATURATION = 1700.0
@@ -88,7 +89,7 @@ def main() -> None:
     dec2 = CanInput.make_decoder("can0", None, health2)
     t0 = time.perf_counter()
     n2 = 0
-    for raw in CanInput.open_replay(io.BytesIO(text), "bench", health2, ReplayOptions()):
+    for raw in CANDUMP.open(io.BytesIO(text), "bench", health2, ReplayOptions()):
         n2 += len(dec2.decode(raw))
     dt_replay = time.perf_counter() - t0
 

@@ -6,7 +6,7 @@ Writes a log of GGA/VTG/HDT/VBW cycles (10 Hz GNSS and heading, VBW each cycle) 
 temporary file, then times
   1. bare `pynmea2.parse(line, check=True)` of every line (the floor, DEPENDENCIES.md);
   2. the full input stage: reading the file, framing, checksum, time stamping, raw
-     records, decoding to validated measurements (`open_replay` + `decode`).
+     records, decoding to validated measurements (`NMEA0183.open` + `decode`).
 Prints both rates in sentences/s and their cost ratio (target: <= 1.5).
 """
 
@@ -24,6 +24,7 @@ import pynmea2
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
+from edged_nmea0183.logs import NMEA0183
 from edged_nmea0183.plugin import Nmea0183Input
 
 
@@ -64,7 +65,7 @@ def bench_stage(path: str) -> tuple[float, int, dict[str, int]]:
     n_meas = 0
     t0 = time.perf_counter()
     with open(path, "rb") as f:
-        for raw in Nmea0183Input.open_replay(f, "bench", health, ReplayOptions(date="2024-06-01")):
+        for raw in NMEA0183.open(f, "bench", health, ReplayOptions(date="2024-06-01")):
             n_meas += len(decode(raw))
     return time.perf_counter() - t0, n_meas, health.counters
 

@@ -16,6 +16,7 @@ import pytest
 from edged.plugin import ReplayOptions
 from edged_can import candump
 from edged_can.formats import actisense_plain, can_id
+from edged_can.logs import ACTISENSE_PLAIN, CANDUMP
 from edged_can.plugin import CanInput
 
 FILES = {
@@ -43,10 +44,10 @@ FILES = {
 }
 
 
-def _decode(stream, source, health):
+def _decode(stream, source, health, reader=ACTISENSE_PLAIN):
     decoder = CanInput.make_decoder(source, None, health)
     out = []
-    for raw in CanInput.open_replay(stream, source, health, ReplayOptions()):
+    for raw in reader.open(stream, source, health, ReplayOptions()):
         out.extend(decoder.decode(raw))
     return out
 
@@ -55,7 +56,7 @@ def _decode(stream, source, health):
 def test_real_plain_logs_give_the_index_counts(n2k_data, make_health, name):
     path = n2k_data / name
     with path.open("rb") as f:
-        assert CanInput.sniff(f.read(4096))
+        assert ACTISENSE_PLAIN.sniff(f.read(4096))
         f.seek(0)
         health = make_health(path.stem)
         ms = _decode(io.BufferedReader(f), path.stem, health)
@@ -103,7 +104,7 @@ def test_round_trip_candump_and_plain_give_identical_measurements(make_health):
         for t, p, pgn, s, d, data in frames
     )
     assert candump.sniff(dump) and actisense_plain.sniff(plain) and not candump.sniff(plain)
-    a = _decode(io.BytesIO(dump), "bus", make_health("a"))
+    a = _decode(io.BytesIO(dump), "bus", make_health("a"), CANDUMP)
     b = _decode(io.BytesIO(plain), "bus", make_health("b"))
     assert len(a) == len(frames) and [(m.kind, m.source, round(m.t, 3), m.values) for m in a] == [
         (m.kind, m.source, round(m.t, 3), m.values) for m in b

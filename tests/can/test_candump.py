@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from edged.plugin import ReplayOptions
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 LOG_L = b"(1732350000.123456) can0 09F11201#0011223344556677\n(1732350000.223456) can0 320#E803\n"
@@ -26,12 +27,12 @@ NOT_CANDUMP = [
 
 
 def _read(text: bytes, health, config=None, source="file") -> list:
-    return list(CanInput.open_replay(io.BytesIO(text), source, health, ReplayOptions(config=config)))
+    return list(CANDUMP.open(io.BytesIO(text), source, health, ReplayOptions(config=config)))
 
 
 @pytest.mark.parametrize("head", [LOG_L, SCREEN_T, SCREEN, OLD])
 def test_sniff_recognises_candump_layouts(head):
-    assert CanInput.sniff(head)
+    assert CANDUMP.sniff(head)
 
 
 @pytest.mark.parametrize("head", NOT_CANDUMP)
@@ -42,7 +43,7 @@ def test_sniff_rejects_other_formats(head):
 
 
 def test_sniff_ignores_a_line_cut_by_the_head():
-    assert CanInput.sniff(LOG_L + b"(1732350000.3) can0 09F1")
+    assert CANDUMP.sniff(LOG_L + b"(1732350000.3) can0 09F1")
 
 
 def test_log_format(health):
@@ -115,11 +116,11 @@ def test_every_shared_candump_log_replays(n2k_data, make_health):
     for path in logs:
         health = make_health(path.stem)
         with path.open("rb") as f:
-            assert CanInput.sniff(f.read(4096)), path.name
+            assert CANDUMP.sniff(f.read(4096)), path.name
             f.seek(0)
             decoders: dict = {}
             n = 0
-            for raw in CanInput.open_replay(f, path.stem, health, ReplayOptions(path=path)):
+            for raw in CANDUMP.open(f, path.stem, health, ReplayOptions(path=path)):
                 if raw.source not in decoders:
                     decoders[raw.source] = CanInput.make_decoder(raw.source, None, health)
                 decoders[raw.source].decode(raw)

@@ -9,6 +9,7 @@ import pytest
 
 from edged.plugin import ReplayOptions
 from edged_can.fastpacket import FastPacketAssembler
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 PGN = 129029
@@ -113,8 +114,8 @@ def test_a_message_split_across_two_log_files_is_reassembled(health, build):
     file_a, file_b = _candump(stamped[:3]), _candump(stamped[3:])
     opts = ReplayOptions()
     recs = heapq.merge(
-        CanInput.open_replay(file_a, "part1", health, opts),
-        CanInput.open_replay(file_b, "part2", health, opts),
+        CANDUMP.open(file_a, "part1", health, opts),
+        CANDUMP.open(file_b, "part2", health, opts),
         key=lambda r: r.t,
     )
     decoders = {}

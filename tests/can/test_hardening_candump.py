@@ -21,6 +21,7 @@ from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.timecheck import CONFIRM, EARLIEST, LATEST
 from edged_can import candump
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 T0 = 1732350000.0
@@ -33,7 +34,7 @@ def _health() -> ComponentHealth:
 
 def _read(text: bytes, health: ComponentHealth | None = None) -> tuple[list, ComponentHealth]:
     h = health or _health()
-    return list(CanInput.open_replay(io.BytesIO(text), "file", h, ReplayOptions())), h
+    return list(CANDUMP.open(io.BytesIO(text), "file", h, ReplayOptions())), h
 
 
 def _with(bad: str) -> bytes:

@@ -18,6 +18,7 @@ import pytest
 from edged.plugin import ReplayOptions
 from edged_can import candump
 from edged_can.formats import actisense_plain, can_id, ikonvert, ydwg_raw
+from edged_can.logs import CANDUMP
 from edged_can.plugin import CanInput
 
 REAL = "canboat__samples__merrimac-ydwg-2020.raw"
@@ -218,7 +219,7 @@ def test_round_trip_candump_and_ydwg_give_identical_measurements(make_health, bu
     assert ydwg_raw.sniff(yd) and not candump.sniff(yd) and not actisense_plain.sniff(yd) and not ikonvert.sniff(yd)
     health = make_health("a")
     decoder = CanInput.make_decoder("bus", None, health)
-    a = [m for raw in CanInput.open_replay(io.BytesIO(dump), "bus", health, ReplayOptions()) for m in decoder.decode(raw)]
+    a = [m for raw in CANDUMP.open(io.BytesIO(dump), "bus", health, ReplayOptions()) for m in decoder.decode(raw)]
     b = _decode(yd, make_health("b"), source="bus")
     assert len(a) == 2 * 1000 + 100
     assert [(m.kind, m.source, round(m.t, 3), m.values, m.t_src) for m in a] == [

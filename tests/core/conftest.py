@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from core_dummies import ChainEstimator, DummyInput, ListOutput, SumEstimator, MeanEstimator
+from core_dummies import ChainEstimator, DummyInput, DummyLog, ListOutput, SumEstimator, MeanEstimator
 
 from edged.registry import Registry
 
@@ -17,6 +17,7 @@ def registry() -> Registry:
     ListOutput.instances = []
     r = Registry(use_entry_points=False)
     r.register("inputs", "dummy", DummyInput)
+    r.register("logs", "dummy", DummyLog())
     r.register("estimators", "sum", SumEstimator)
     r.register("estimators", "chain", ChainEstimator)
     r.register("estimators", "mean", MeanEstimator)

@@ -107,11 +107,11 @@ def test_recover_a_complete_file_copies_it_and_replay_reads_the_unfinished_one(t
     from edged.clock import ManualClock
     from edged.health import ComponentHealth
     from edged.plugin import ReplayOptions
-    from edged_mcap.recorder import McapRecorder
+    from edged_mcap.logs import MCAP
 
     health = ComponentHealth("c", "input", "mcap", ManualClock(0))
     with open(path, "rb") as f:
-        raws = list(McapRecorder.open_replay(f, "c", health, ReplayOptions()))
+        raws = list(MCAP.open(f, "c", health, ReplayOptions()))
     assert len(raws) >= 400 and health.counters["truncated"] == 1
 
     assert cli(["recover", str(path)]) == 0

@@ -33,7 +33,7 @@ from edged_mcap import reading
 from edged_mcap.flatten import flatten
 from edged_mcap.plotdata import collect
 from edged_mcap.reading import MAGIC, NoRecords, ReadReport, iter_messages, iter_records
-from edged_mcap.recorder import McapRecorder
+from edged_mcap.logs import MCAP
 from edged_mcap.recovery import recover
 from edged_mcap.stats import file_stats
 
@@ -304,7 +304,7 @@ def test_replay_of_a_damaged_file_counts_the_damage_in_the_source_health(good, k
         pytest.param(lambda p: collect(p), id="plot"),
         pytest.param(lambda p: recover(p, p.with_name("r.mcap")), id="recover"),
         pytest.param(lambda p: _messages(open(p, "rb"), ReadReport()), id="export"),
-        pytest.param(lambda p: list(McapRecorder.open_replay(open(p, "rb"), "f", _health(), ReplayOptions())), id="replay"),
+        pytest.param(lambda p: list(MCAP.open(open(p, "rb"), "f", _health(), ReplayOptions())), id="replay"),
     ],
 )
 def test_what_each_command_reads_stays_small_on_a_lying_length(good, fn, tmp_path):
@@ -354,7 +354,7 @@ def test_replay_reader_names_a_file_holding_only_the_magic():
     from edged.replay import UnknownFormat
 
     with pytest.raises(UnknownFormat, match="no records: f holds only the MCAP magic"):
-        list(McapRecorder.open_replay(io.BytesIO(MAGIC), "f", _health(), ReplayOptions()))
+        list(MCAP.open(io.BytesIO(MAGIC), "f", _health(), ReplayOptions()))
 
 
 def test_replay_of_a_file_holding_only_the_magic_exits_2_like_an_empty_one(tmp_path, capsys):
@@ -506,7 +506,7 @@ def test_fuzz_the_replay_reading_path(bases, monkeypatch, data):
 
     h = _health()
     try:
-        raws = list(McapRecorder.open_replay(_buffered(blob), "f", h, ReplayOptions()))
+        raws = list(MCAP.open(_buffered(blob), "f", h, ReplayOptions()))
     except UnknownFormat:  # no readable record at all: refused like an empty file
         assert refused and isinstance(refused[0], NoRecords)
         return

@@ -16,7 +16,7 @@ from edged.cli import main
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
-from edged_mcap.recorder import McapRecorder
+from edged_mcap.logs import MCAP
 from edged_mcap.rawreader import read_raw
 
 T0 = 1732350000.0
@@ -55,7 +55,7 @@ def _health() -> ComponentHealth:
 @pytest.mark.parametrize("bad", ["Infinity", "-Infinity", "NaN", "-1.0", "1e300", "20000000000.0", "1" + "0" * 400])
 def test_a_raw_message_with_a_time_that_cannot_be_true_costs_itself_only(bad):
     h = _health()
-    recs = list(McapRecorder.open_replay(io.BytesIO(_with(bad)), "f", h, ReplayOptions()))
+    recs = list(MCAP.open(io.BytesIO(_with(bad)), "f", h, ReplayOptions()))
     assert [r.t for r in recs] == [T0, T0 + 1, T0 + 2, T0 + 3]
     assert h.counters["rejected.bad_time"] == 1
 

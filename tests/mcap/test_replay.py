@@ -13,7 +13,7 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import Measurement, RawRecord
-from edged_mcap.recorder import McapRecorder
+from edged_mcap.logs import MCAP
 
 
 def _health() -> ComponentHealth:
@@ -21,7 +21,7 @@ def _health() -> ComponentHealth:
 
 
 def _replay(data: bytes, health: ComponentHealth | None = None) -> list[RawRecord]:
-    return list(McapRecorder.open_replay(io.BytesIO(data), "f", health or _health(), ReplayOptions()))
+    return list(MCAP.open(io.BytesIO(data), "f", health or _health(), ReplayOptions()))
 
 
 def _write(make_rig, path: Path, recs, **cfg) -> None:
@@ -64,9 +64,9 @@ def test_only_raw_channels_are_replayed_in_file_order(make_rig, tmp_path, record
 def test_sniff_recognises_mcap_only(make_rig, tmp_path):
     path = tmp_path / "s.mcap"
     _write(make_rig, path, [])
-    assert McapRecorder.sniff(path.read_bytes()[:64])
-    assert not McapRecorder.sniff(b"$GPGGA,123519,4807.038,N*47\r\n")
-    assert not McapRecorder.sniff(b"(1732350000.123456) can0 09F11201#00")
+    assert MCAP.sniff(path.read_bytes()[:64])
+    assert not MCAP.sniff(b"$GPGGA,123519,4807.038,N*47\r\n")
+    assert not MCAP.sniff(b"(1732350000.123456) can0 09F11201#00")
 
 
 def _handmade(messages: list[tuple[str, bytes]]) -> bytes:

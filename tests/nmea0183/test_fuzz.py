@@ -17,6 +17,7 @@ from edged.records import RawRecord, validate_measurement
 from edged_nmea0183.framer import Framer
 from edged_nmea0183.lines import Framed, LineSplitter, frame
 from edged_nmea0183.handlers import HANDLERS
+from edged_nmea0183.logs import NMEA0183
 from edged_nmea0183.plugin import Nmea0183Input
 
 FUZZ = settings(max_examples=300, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
@@ -73,7 +74,7 @@ def test_replay_and_decode_never_raise_and_counts_add_up(chunks, date):
     health = _health()
     dec = Nmea0183Input.make_decoder("f", None, health)
     data = b"".join(chunks)
-    raws = list(Nmea0183Input.open_replay(io.BytesIO(data), "f", health, ReplayOptions(date=date)))
+    raws = list(NMEA0183.open(io.BytesIO(data), "f", health, ReplayOptions(date=date)))
     n_meas = 0
     for r in raws:
         for m in dec.decode(r):

@@ -23,7 +23,7 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.timecheck import LATEST
-from edged_nmea0183.plugin import Nmea0183Input
+from edged_nmea0183.logs import NMEA0183
 
 T0 = 1732350000.0
 
@@ -55,7 +55,7 @@ def _health() -> ComponentHealth:
 
 def _read(data: bytes) -> tuple[list, ComponentHealth]:
     h = _health()
-    return list(Nmea0183Input.open_replay(io.BytesIO(data), "log", h, ReplayOptions())), h
+    return list(NMEA0183.open(io.BytesIO(data), "log", h, ReplayOptions())), h
 
 
 def test_the_issue_s_tag_block_has_a_correct_checksum():
@@ -191,7 +191,7 @@ def _noisy_log(n_bad: int, n_good: int) -> bytes:
 
 def test_bad_checksums_at_the_head_do_not_make_the_log_unrecognised(tmp_path, capsys):
     data = _noisy_log(21, 10_000 - 21)
-    assert Nmea0183Input.sniff(data[:4096])
+    assert NMEA0183.sniff(data[:4096])
     path = tmp_path / "noisy.nmea"
     path.write_bytes(data)
     rc = main(["replay", str(path), "--no-zenoh", "--no-progress"])
@@ -221,7 +221,7 @@ def test_line_noise_filling_the_first_4_kib_does_not_hide_a_good_log(tmp_path, c
     ],
 )
 def test_foreign_formats_are_still_refused(head):
-    assert not Nmea0183Input.sniff(head[:4096])
+    assert not NMEA0183.sniff(head[:4096])
 
 
 # ---- property: whatever the TAG times -------------------------------------------

@@ -10,6 +10,7 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import Measurement, validate_measurement
+from edged_nmea0183.logs import NMEA0183
 from edged_nmea0183.plugin import Nmea0183Input
 
 LOGS = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "nmea0183"
@@ -20,9 +21,9 @@ def replay_file(path: Path, date: str | None = None) -> tuple[ComponentHealth, l
     dec = Nmea0183Input.make_decoder(path.stem, None, health)
     raws, ms = [], []
     with path.open("rb") as f:
-        assert Nmea0183Input.sniff(f.read(4096))
+        assert NMEA0183.sniff(f.read(4096))
         f.seek(0)
-        for raw in Nmea0183Input.open_replay(f, path.stem, health, ReplayOptions(date=date, path=path)):
+        for raw in NMEA0183.open(f, path.stem, health, ReplayOptions(date=date, path=path)):
             raws.append(raw)
             ms += dec.decode(raw)
     return health, ms, raws
@@ -107,12 +108,12 @@ def test_nmea2000_wrapped_in_0183_framing():
     are checksummed NMEA 0183, read here and handed to the CAN decoder."""
     pdgy = b"".join(b"!PDGY,127250,2,3,255,481.%03d,2C20AAAAAAE=\r\n" % i for i in range(30))
     pcdin = b"".join(b"$PCDIN,01F119,00000000,0F,2AAF00D1067414FF*59\r\n" for _ in range(30))
-    assert not Nmea0183Input.sniff(pdgy)
-    assert Nmea0183Input.sniff(pcdin)
+    assert not NMEA0183.sniff(pdgy)
+    assert NMEA0183.sniff(pcdin)
     body = b"HEHDT,123.4,T"
     hdt = b"$%s*%02X\r\n" % (body, __import__("functools").reduce(lambda a, b: a ^ b, body, 0))
     mixed = hdt * 30 + pdgy[:200]
-    assert Nmea0183Input.sniff(mixed)
+    assert NMEA0183.sniff(mixed)
 
 
 def test_shared_ikonvert_log_is_not_ours_but_replays(capsys):
@@ -123,7 +124,7 @@ def test_shared_ikonvert_log_is_not_ours_but_replays(capsys):
     from edged.cli import main
 
     with path.open("rb") as f:
-        assert not Nmea0183Input.sniff(f.read(4096))
+        assert not NMEA0183.sniff(f.read(4096))
     assert main(["replay", str(path), "--no-zenoh", "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "pgn.127250" in out and "unknown.PDGY" not in out

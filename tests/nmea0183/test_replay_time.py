@@ -8,7 +8,7 @@ from datetime import datetime, timezone
 import pytest
 
 from edged.plugin import ReplayOptions
-from edged_nmea0183.plugin import Nmea0183Input
+from edged_nmea0183.logs import NMEA0183
 from edged_nmea0183.timeofday import nearest_time, parse_tod
 
 
@@ -18,7 +18,7 @@ def utc(s: str) -> float:
 
 def replay(text: str, health, date: str | None = None):
     stream = io.BytesIO(text.encode())
-    return list(Nmea0183Input.open_replay(stream, "log", health, ReplayOptions(date=date)))
+    return list(NMEA0183.open(stream, "log", health, ReplayOptions(date=date)))
 
 
 def gga(nmea, hhmmss: str) -> str:

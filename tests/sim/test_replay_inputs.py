@@ -1,4 +1,4 @@
-"""The sim's logs through edged's own inputs (open_replay + make_decoder): nothing is
+"""The sim's logs through edged's own log readers and inputs (`open` + `make_decoder`): nothing is
 rejected from a clean run, and from the faults run exactly what was injected, by reason."""
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ from edged.cli import build_parser
 
 nmea_plugin = pytest.importorskip("edged_nmea0183.plugin")
 can_plugin = pytest.importorskip("edged_can.plugin")
+from edged_can.logs import CANDUMP  # noqa: E402
+from edged_nmea0183.logs import NMEA0183  # noqa: E402
 
 #: Injected damage -> the counter the inputs raise for it.
 REASONS = {
@@ -24,16 +26,17 @@ REASONS = {
     "impossible_value": ("nmea.log", "invalid.GGA"),
     "bad_length": ("can.log", "rejected.dbc_frame"),
 }
-INPUTS = {"nmea.log": nmea_plugin.Nmea0183Input, "can.log": can_plugin.CanInput}
+#: log -> (its reader, the input whose decoder reads its records)
+INPUTS = {"nmea.log": (NMEA0183, nmea_plugin.Nmea0183Input), "can.log": (CANDUMP, can_plugin.CanInput)}
 
 
 def _replay(path: Path) -> tuple[dict[str, int], int]:
-    cls = INPUTS[path.name]
+    reader, cls = INPUTS[path.name]
     health = ComponentHealth(path.stem, "input", cls.__name__, ManualClock())
     decoders: dict = {}
     n = 0
     with open(path, "rb") as stream:
-        for raw in cls.open_replay(stream, "sim", health, ReplayOptions(path=path)):
+        for raw in reader.open(stream, "sim", health, ReplayOptions(path=path)):
             dec = decoders.get(raw.source) or decoders.setdefault(raw.source, cls.make_decoder(raw.source, None, health))
             n += len(dec.decode(raw))
     return dict(health.counters), n

@@ -61,13 +61,21 @@ class DummyInput(InputPlugin):
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> DummyDecoder:
         return DummyDecoder(source, health)
 
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
+
+class DummyLog:
+    """The log reader of `#dummy` files: `<t> <kind> <field>=<value>` lines, decoded
+    by the `dummy` input (registered as log reader `dummy`)."""
+
+    name = "dummy"
+    protocol = "dummy"
+    input = "dummy"
+    priority = 50
+
+    def sniff(self, head: bytes) -> bool:
         return head.startswith(b"#dummy")
 
-    @classmethod
-    def open_replay(
-        cls, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
+    def open(
+        self, stream: BinaryIO, source: str, health: ComponentHealth, options: ReplayOptions
     ) -> Iterator[RawRecord]:
         for raw in stream:
             line = raw.strip()

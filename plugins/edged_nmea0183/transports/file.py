@@ -1,4 +1,5 @@
-"""A file or FIFO read as a live input (replay of logs goes through `open_replay`).
+"""A file or FIFO read as a live input (`edged replay` reads logs through the log
+reader `logs.NMEA0183` instead).
 
 A regular file ends (the link reports `finished`); a FIFO or character device that
 reaches end of stream is reopened like any other link whose peer went away. Reads run
