@@ -26,8 +26,8 @@ comparison is at 1 ms.
 Who writes what (checked against our readers and the real gateways' logs in
 ../shared/data/n2k; `nmea2000` 2026.10.3):
 - candump: `Candump3Encoder` (`candump -l`: `(1717236900.000000) slcan0 0DF01003#…`).
-  As written. (`Candump1/2Encoder` write no time: a log of them replays at 0.0, counted
-  `untimed`; not a round trip of times, so not used.)
+  As written. `Candump1/2Encoder` (old candump, screen output) write no time: the same
+  values at 0.0, every line counted `untimed` (its own test).
 - Actisense plain, reassembled fast-packets (`len` > 8, canboat's PLAIN_FAST, Signal
   K's `.data`): `BasicStringEncoder`. It writes `timestamp.isoformat() + "Z"`, so an
   aware UTC time comes out `…00.000+00:00Z`, which is no ISO time (the real logs write
@@ -483,6 +483,22 @@ def test_every_format_gives_the_buss_measurements(name, reference):
     if name in ("candump", "actisense_plain_frames", "ydwg_raw", "mxpgn"):
         assert c.get("frames") == frames  # frame-by-frame formats: every bus frame
     assert c.get("fastpacket.lost", 0) == 0
+
+
+@pytest.mark.parametrize("fmt", [N2KFormat.CANDUMP1, N2KFormat.CANDUMP2])
+def test_candump_layouts_without_time_give_the_values_untimed(fmt, reference):
+    """`Candump1Encoder` (`<0x09F11207> [8] 03 39 …`, old candump) and `Candump2Encoder`
+    (`can0  09F11207   [8]  03 39 …`, screen output without -t) write no time: our
+    reader gives the same measurements at 0.0 and counts every line `untimed` (visible,
+    not hidden); the device times of 129029 are still the device's."""
+    enc = create_encoder(fmt)
+    log = "".join(line + "\n" for m in STREAM for line in _lines(enc.encode(m))).encode()
+    health = _health()
+    rows = measure(read_candump(log, health), health)
+    ref_rows, _ = reference
+    assert rows == [(k, src, 0, v, ts) for k, src, _, v, ts in ref_rows]
+    assert health.counters["untimed"] == sum(1 for _ in _frames(STREAM))
+    assert not _rejected(health)
 
 
 def test_the_package_mxpgn_encoder_writes_fast_packets_whole_which_no_miniplex_does():
