@@ -22,6 +22,8 @@ from edged.health import ComponentHealth
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
+from .formats import rejecter
+
 #: bit of the identifier that marks a SocketCAN error frame in `-l` logs
 _CAN_ERR_FLAG = 0x20000000
 _HEADER_PREFIXES = (b"#", b"interface =")
@@ -194,14 +196,7 @@ def read(
     """
     untimed = False
     accept = TimeWindow(limits, earliest=0.0).accept
-    reported: set[str] = set()
-
-    def reject(reason: str, message: str) -> None:
-        """Count; log the first line of each reason (a million bad lines: one warning)."""
-        health.count("rejected." + reason)
-        if reason not in reported:
-            reported.add(reason)
-            health.error(f"{message} (further such lines counted as rejected.{reason})")
+    reject = rejecter(health)
 
     fast = _FAST.fullmatch
     buses: dict[bytes, str] = {}
