@@ -96,7 +96,7 @@ LAST = 1 << 30
 def log_readers(registry: Registry) -> list[tuple[str, LogReader]]:
     """Every installed log reader, in sniff order: `priority` (lower first), then name.
 
-    Each is loaded to learn its priority: a reader's module is light (DESIGN §4), the
+    Each is loaded to learn its priority: a reader's module is light (DESIGN §1), the
     decoding stacks are imported by `open` and by the decoders, for its files only."""
     readers = []
     for name, reader in registry.iter("logs"):

@@ -8,7 +8,7 @@ the records of all of them are decoded by the `can` input's decoder.
 
 Adding a format whose module `formats/<name>.py` has `NAME`, `sniff` and `read`:
 one line here, `<NAME> = FormatReader("<name>", <priority>)`, and one entry point in
-pyproject.toml, `<name> = "edged_can.logs:<NAME>"`. Priorities 20-29 (DESIGN §4):
+pyproject.toml, `<name> = "edged_can.logs:<NAME>"`. Priorities 20-29 (DESIGN §1):
 after MCAP's magic, before NMEA 0183.
 """
 
