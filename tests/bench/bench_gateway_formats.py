@@ -17,7 +17,10 @@ builder: the `nmea2000` package's MxpgnEncoder writes a fast-packet PGN whole in
 sentence, which no MiniPlex does). `$PCDIN`: one sentence a message, the fast-packets
 reassembled by the package's canboat reassembler (all PGNs kept, which decoding and
 re-encoding them by field would not), the log twice (the second pass one span later)
-for about 50 k lines; a record is a message, as for iKonvert.
+for about 50 k lines; a record is a message, as for iKonvert. The live-only Actisense
+formats are made from the same messages: BST 93 (an NGT-1) and BST 95 (an NGX in raw
+CAN mode) as a byte stream cut by the live input's deframer in 4 KiB reads, N2K ASCII
+one line a message. The decoders' warnings (once per reason per repetition) are off.
 
     .venv/bin/python tests/bench/bench_gateway_formats.py [--seconds S]
 """
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import logging
 import sys
 import time
 from pathlib import Path
@@ -34,7 +38,9 @@ from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged_can import candump
+from edged.records import RawRecord
 from edged_can.formats import actisense_plain, ikonvert, ydwg_raw
+from edged_can.formats.actisense_bst import Deframer
 from edged_can.plugin import CanInput
 from edged_nmea0183 import logfile
 
@@ -116,6 +122,70 @@ def _made_pcdin(path: Path) -> bytes:
     return "".join(out).encode()
 
 
+def _messages(path: Path) -> list[tuple[float, int, int, int, bytes]]:
+    """(time, priority, PGN, source, payload) of the candump log's messages, fast-packets
+    reassembled by the package's canboat `Reassembler` (what an NGT-1 or NGX sends)."""
+    from nmea2000._canboat import Reassembler
+
+    join = Reassembler()
+    out = []
+    for t, can_id, data in _frames(path):
+        prio, pgn, src = _split(can_id)
+        payload = data if pgn in _ISO_TP else join.push(pgn, data, src, 255, prio)
+        if payload:
+            out.append((t, prio, pgn, src, payload))
+    return out
+
+
+def _stuff(msg: bytes) -> bytes:
+    msg += bytes([(-sum(msg)) & 0xFF])
+    return b"\x10\x02" + msg.replace(b"\x10", b"\x10\x10") + b"\x10\x03"
+
+
+def _made_bst93(path: Path) -> bytes:
+    """NGT-1 "N2K message received" (BST 93), one a message, twice over (~50 k)."""
+    out = []
+    for _ in range(2):
+        for _t, prio, pgn, src, payload in _messages(path):
+            body = bytes([prio]) + pgn.to_bytes(3, "little") + bytes([255, src]) + bytes(4) + bytes([len(payload)])
+            out.append(_stuff(bytes([0x93, len(body) + len(payload)]) + body + payload))
+    return b"".join(out)
+
+
+def _made_bst95(path: Path) -> bytes:
+    """BST 95 CAN frames (an NGX in raw mode), one a frame."""
+    out = []
+    for _t, can_id, data in _frames(path):
+        prio, pgn, src = _split(can_id)
+        ps = (can_id >> 8) & 0xFF
+        out.append(_stuff(bytes([0x95, 6 + len(data), 0, 0, src, ps, (pgn >> 8) & 0xFF, prio << 2 | pgn >> 16]) + data))
+    return b"".join(out)
+
+
+def _made_ascii(path: Path) -> bytes:
+    """Actisense N2K ASCII lines, one a message, twice over."""
+    lines = []
+    for _ in range(2):
+        for _t, prio, pgn, src, payload in _messages(path):
+            lines.append(f"A000000.000 {src << 12 | 0xFF0 | prio:05X} {pgn:05X} {payload.hex().upper()}\n")
+    return "".join(lines).encode()
+
+
+def _bst(stream, health):
+    """The live input's path: 4 KiB reads through the deframer, a record a message."""
+    deframer = Deframer(health)
+    meta = {"format": "actisense_bst"}
+    while chunk := stream.read(4096):
+        for msg in deframer.feed(chunk):
+            yield RawRecord("can", "bench", 0.0, msg, meta)
+
+
+def _ascii(stream, health):
+    meta = {"format": "actisense_ascii"}
+    for line in stream:
+        yield RawRecord("can", "bench", 0.0, line.strip(), meta)
+
+
 def _file(path: Path) -> bytes:
     return path.read_bytes()
 
@@ -128,6 +198,9 @@ CASES = [
     ("actisense_plain", "canboat__samples__dirona-actisense-serial.raw", _file, _plain, "frames"),
     ("$PCDIN (made)", CANDUMP_LOG, _made_pcdin, _nmea0183, "messages"),
     ("$MXPGN (made)", CANDUMP_LOG, _made_mxpgn, _nmea0183, "frames"),
+    ("BST 93 (made)", CANDUMP_LOG, _made_bst93, _bst, "messages"),
+    ("BST 95 (made)", CANDUMP_LOG, _made_bst95, _bst, "frames"),
+    ("N2K ASCII (made)", CANDUMP_LOG, _made_ascii, _ascii, "messages"),
     ("candump -l", CANDUMP_LOG, _file, _candump, "frames"),
 ]
 
@@ -148,6 +221,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=2.0, help="CPU time per format (default 2)")
     args = ap.parse_args()
+    logging.getLogger("edged").setLevel(logging.CRITICAL)
     if not DATA.is_dir():
         print(f"{DATA} absent: nothing to measure")
         return 0
