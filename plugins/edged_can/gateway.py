@@ -28,14 +28,14 @@ from __future__ import annotations
 
 import asyncio
 import os
-from typing import Any, BinaryIO, ClassVar, Iterator, Literal, Protocol
+from typing import Any, ClassVar, Literal, Protocol
 
 from pydantic import Field, ValidationInfo, field_validator
 
 from edged.config import MAX_WATCHDOG, ReconnectSettings
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost, LinkStale
-from edged.plugin import Claim, InputConfig, InputPlugin, PluginContext, ReplayOptions
+from edged.plugin import Claim, InputConfig, InputPlugin, PluginContext
 from edged.records import RawRecord
 
 from .config import default_config
@@ -320,12 +320,3 @@ class GatewayInput(InputPlugin):
         from .decoder import CanDecoder
 
         return CanDecoder(source, default_config(), health)  # a bus's decoder, as for a log
-
-    @classmethod
-    def sniff(cls, head: bytes) -> bool:
-        return False  # logs of these formats are the `can` input's (formats/)
-
-    @classmethod
-    def open_replay(cls, stream: BinaryIO, source: str, health: ComponentHealth,
-                    options: ReplayOptions) -> Iterator[RawRecord]:
-        return iter(())

@@ -135,11 +135,6 @@ def test_detect_imports_no_decoding_stack(shared_files, key):
     assert name == DETECTED[key] and heavy == set()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="plugins/edged_nmea0183/__init__.py imports its decoder (and numpy) at import, "
-    "so loading the reader edged_nmea0183.logs does too: make that __init__ lazy (PEP 562)",
-)
 def test_detect_of_a_can_log_does_not_import_the_nmea0183_decoder(shared_files):
     name, heavy = _imports_of_detect(
         shared_files["n2k/canboat__samples__candumpSample1.txt"], {"numpy", "edged_nmea0183"}
