@@ -20,7 +20,7 @@ from .config import StwConfig
 from .current import C, CurrentFilter, CurrentParams
 from .dvl import LogCalibration
 from .ground import VEL, GroundFilter
-from .plane import LocalPlane
+from edged.geo import LocalPlane
 
 #: Re-anchor the local plane after this many metres (plane.py).
 ANCHOR_RADIUS = 2000.0

@@ -1,4 +1,4 @@
-"""A local tangent plane (north, east in metres) that follows the vessel.
+"""A local tangent plane (north, east in metres) that follows the vessel (the estimators' common geometry).
 
 Flat-earth coordinates are exact enough within a few kilometres of their origin; a
 voyage leaves any fixed origin behind (100 km north at 45° changes the east scale by

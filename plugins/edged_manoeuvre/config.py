@@ -1,0 +1,134 @@
+"""Configuration of the manoeuvring-state estimator (`[estimators.<name>] type = "manoeuvre"`).
+
+Two sets of defaults, chosen by `mode`:
+- `tuned` (default): noise for the sensors ships carry (GNSS σ 1.5 m, gyro 0.2°,
+  rate of turn 0.05°/s, MEMS accelerometers 0.03 m/s² with a bias) and process noise
+  from what a displacement hull can do (a yaw acceleration of about 3e-4 rad/s² in a
+  second, a jerk of about 0.01 m/s³), then learned or adapted online: each sensor's
+  variance from its innovations, the process noise when the NIS leaves its χ² band,
+  the accelerometers' biases as states. Nothing here is fitted to one simulator.
+- `paper`: seed 002's Table 3 exactly (Q, R, δt = 0.005 s), its two-point
+  differencing start and P0 of eqs. (20)–(22), nothing adapted, no biases: the paper's
+  filter, for comparison. Angles are wrapped in both (that fix is not optional).
+Every value can be set; an unset one takes its mode's default.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from edged.plugin import EstimatorConfig
+
+DEG = math.pi / 180.0
+
+#: Seed 002, Table 3 (Q in the CTRA's state order; R for z = [p_n, p_e, ψ, r, a_u, a_v]).
+PAPER_Q = (1e-1, 1e-1, 1e-3, 1e-3, 1e-5, 1e-5, 1e-1 * DEG, 1e-5 * DEG)
+PAPER_R = {"position": 1.0, "heading": 0.5 * DEG, "yaw_rate": 1e-3 * DEG, "accel": 0.01}
+
+#: mode -> default of every field left unset (None).
+DEFAULTS = {
+    "tuned": {
+        "substep": 0.05, "position_sigma": 1.5, "heading_sigma_deg": 0.2, "yaw_rate_sigma_deg": 0.05,
+        "accel_sigma": 0.03, "q_position": 1e-4, "q_velocity": 1e-6, "q_heading": 1e-8,
+        "q_yaw_accel": 1e-8, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
+        "gate": True, "imu_bias": True, "init_window": 1.0, "max_rate": 10.0,
+    },
+    "paper": {
+        "substep": 0.005, "position_sigma": PAPER_R["position"], "heading_sigma_deg": 0.5,
+        "yaw_rate_sigma_deg": 1e-3, "accel_sigma": PAPER_R["accel"],
+        "q_position": PAPER_Q[0], "q_velocity": PAPER_Q[2], "q_heading": PAPER_Q[4],
+        "q_yaw_accel": PAPER_Q[5], "q_jerk": PAPER_Q[6], "q_jerk_v": PAPER_Q[7], "q_bias": 1e-8,
+        "adapt_q": False, "adapt_r": False, "gate": False, "imu_bias": False, "init_window": 0.0,
+        "max_rate": 0.0,
+    },
+}
+
+
+class ManoeuvreConfig(EstimatorConfig):
+    mode: Literal["tuned", "paper"] = "tuned"
+    model: Literal["ctra", "cmm"] = "ctra"
+    filter: Literal["ekf", "ukf", "enkf"] = "ekf"
+    #: EnKF: members, the random generator's seed, multiplicative inflation per update.
+    members: int = Field(100, ge=3, le=100_000)
+    seed: int = Field(0, ge=0)
+    inflation: float = Field(1.0, ge=1.0, le=2.0)
+    #: Estimates per second of data time, and when they are stale (GNSS lost).
+    publish_rate: float = Field(10.0, ge=0.0, le=1000.0)
+    stale_after: float = Field(3.0, ge=0.0, le=86_400.0)
+    #: Prediction horizons (s) and the time constant (s) of the accelerations' decay in it.
+    horizons: list[float] = Field(default_factory=lambda: [10.0, 30.0, 60.0, 120.0])
+    accel_decay: float = Field(30.0, gt=0.0, le=3600.0)
+    #: The prediction is made afresh this many times a second of data time (0: with
+    #: every estimate); in between each estimate carries the last one, its `dt`
+    #: counted from the estimate's own time.
+    predict_rate: float = Field(1.0, ge=0.0, le=1000.0)
+    #: Largest Runge–Kutta sub-step, s.
+    substep: float | None = Field(None, gt=0.0, le=1.0, validate_default=True)
+
+    # Sensor noise (1-σ), the starting values when adapted.
+    position_sigma: float | None = Field(None, gt=0.0, le=1000.0, validate_default=True)
+    heading_sigma_deg: float | None = Field(None, gt=0.0, le=30.0, validate_default=True)
+    yaw_rate_sigma_deg: float | None = Field(None, gt=0.0, le=30.0, validate_default=True)
+    accel_sigma: float | None = Field(None, gt=0.0, le=10.0, validate_default=True)
+
+    # Process noise: spectral densities of the white noise on each state's derivative.
+    q_position: float | None = Field(None, ge=0.0, le=1e3, validate_default=True)  # m²/s
+    q_velocity: float | None = Field(None, ge=0.0, le=1e3, validate_default=True)  # m²/s³
+    q_heading: float | None = Field(None, ge=0.0, le=1.0, validate_default=True)  # rad²/s
+    q_yaw_accel: float | None = Field(None, ge=0.0, le=1.0, validate_default=True)  # rad²/s³
+    q_jerk: float | None = Field(None, ge=0.0, le=1e3, validate_default=True)  # m²/s⁵ (a_u; a_t)
+    #: The sway acceleration's (a_v; a_n), when it differs (the paper's Table 3 does).
+    q_jerk_v: float | None = None
+    q_bias: float | None = Field(None, ge=0.0, le=1.0, validate_default=True)  # m²/s⁵
+
+    adapt_q: bool | None = Field(None, validate_default=True)
+    adapt_r: bool | None = Field(None, validate_default=True)
+    gate: bool | None = Field(None, validate_default=True)
+    imu_bias: bool | None = Field(None, validate_default=True)
+    #: Seconds of fixes fitted by a straight line for the starting velocity (0: the
+    #: paper's two-point differencing of the first two fixes).
+    init_window: float | None = Field(None, ge=0.0, le=60.0, validate_default=True)
+
+    #: A sensor faster than this (Hz) is averaged in blocks to it before the update
+    #: (a 50 Hz IMU: five samples a measurement); 0 updates with every sample.
+    max_rate: float | None = Field(None, ge=0.0, le=1000.0, validate_default=True)
+    #: Plane origin moved to the estimate when the vessel is this far from it, m.
+    origin_radius: float = Field(5000.0, ge=100.0, le=100_000.0)
+    #: Take the current for the drift through the water from this estimator's
+    #: `est/<name>` (an `stw` instance), or from `current` measurements when None.
+    current_from: str | None = None
+
+    @field_validator(
+        "substep", "position_sigma", "heading_sigma_deg", "yaw_rate_sigma_deg", "accel_sigma", "q_position",
+        "q_velocity", "q_heading", "q_yaw_accel", "q_jerk", "q_bias", "adapt_q", "adapt_r", "gate", "imu_bias",
+        "init_window", "max_rate",
+    )
+    @classmethod
+    def _mode_default(cls, v: object, info: ValidationInfo) -> object:
+        if v is not None:
+            return v
+        return DEFAULTS[info.data.get("mode", "tuned")][info.field_name]  # type: ignore[index]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _worker_of_filter(cls, data: object) -> object:
+        """The UKF and EnKF run in a process of their own unless told otherwise: at
+        50 Hz their updates would take the event loop from the inputs (`worker`)."""
+        if isinstance(data, dict) and "worker" not in data and data.get("filter") in ("ukf", "enkf"):
+            data = {**data, "worker": "process"}
+        return data
+
+    @field_validator("horizons")
+    @classmethod
+    def _horizons(cls, v: list[float]) -> list[float]:
+        if len(v) > 20 or any(not (0.0 < h <= 3600.0) for h in v):
+            raise ValueError("at most 20 horizons, each in (0, 3600] s")
+        return sorted(v)
+
+    def jerk_v(self) -> float:
+        if self.q_jerk_v is not None:
+            return self.q_jerk_v
+        return DEFAULTS[self.mode].get("q_jerk_v", self.q_jerk)  # type: ignore[return-value]

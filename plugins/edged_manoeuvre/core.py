@@ -1,0 +1,421 @@
+"""The manoeuvring-state estimator's core: measurements in, `est/manoeuvre` out.
+
+Each measurement is met at its own time: the filter is predicted from its last time
+to the measurement's (any interval, Runge–Kutta sub-steps) and updated with that
+sensor's rows of h only (seed 002 Table 2, split by sensor). The sensors:
+`position` (lat, lon → the local tangent plane), `heading`, `yaw_rate`, `accel_body`
+(ax, ay: the accelerometers, Coriolis terms included). `current` measurements, or an
+`stw` estimator's `est/<name>`, give the drift angle through the water (seed 001).
+
+Start: the plane's origin is the first fix; the filter starts once a heading is known
+and, in `tuned` mode, `init_window` seconds of fixes give the velocity by a straight-
+line fit (σ of the fit in P0), or in `paper` mode the first two fixes by two-point
+differencing with P0 of eqs. (20)–(22).
+
+Monitoring (seed 002 §4): every update's NIS against its χ² band and rcond(S)
+(eq. 23); rcond below 1e-10, or a state that is not finite, is a divergence: counted,
+reported, and the filter starts again from the next measurements. Gated updates,
+released gates, resets and the process-noise scale are in health.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, deque
+from typing import Any
+
+import numpy as np
+
+from edged.geo import LocalPlane
+from edged.innovation import InnovationMonitor
+from edged.records import Estimate, Measurement
+
+from .adaptive import Gate, NoiseEstimate, QScale
+from .cmm import Cmm
+from .config import DEG, ManoeuvreConfig
+from .decimate import Decimator
+from .ctra import Ctra
+from .model import KINDS, PSI, R, rk4, wrap_2pi, wrap_pi
+from .predict import Predictor
+
+#: rcond(S) below this is a diverged filter (seed 002 §4.2).
+RCOND_MIN = 1e-10
+#: A heading or yaw rate older than this does not start the filter.
+START_AGE = 1.0
+#: 1-σ of the starting accelerations (m/s²) and biases (m/s²), and of the yaw rate
+#: when no rate sensor has spoken (rad/s).
+START_ACCEL_SIGMA = 0.1
+START_BIAS_SIGMA = 0.05
+START_RATE_SIGMA = 0.01
+#: The smallest 1-σ a sensor's learned noise may reach (per row): below any real
+#: sensor's, so that the estimate follows a good sensor but never trusts one blindly.
+SIGMA_FLOOR = {
+    "position": np.full(2, 0.05),
+    "heading": np.array([0.005 * DEG]),
+    "yaw_rate": np.array([0.0005 * DEG]),
+    "accel": np.full(2, 0.001),
+}
+#: States whose process noise the NIS adaptation scales (the manoeuvring ones).
+MANOEUVRE_STATES = (2, 3, 5, 6, 7)
+#: Health text of each input's absence.
+COSTS = {
+    "position": "no GNSS position: the filter cannot start",
+    "heading": "no heading: the filter cannot start (sway needs the heading)",
+    "yaw_rate": "no rate of turn: r is seen through the heading only",
+    "accel_body": "no accelerometers: accelerations are seen through the GNSS only",
+}
+
+
+class ManoeuvreCore:
+    def __init__(self, cfg: ManoeuvreConfig, *, init_rng: np.random.Generator | None = None) -> None:
+        self.cfg = cfg
+        bias = bool(cfg.imu_bias)
+        self.model: Ctra | Cmm = Ctra(bias) if cfg.model == "ctra" else Cmm(bias)
+        n = self.model.n
+        q = [cfg.q_position, cfg.q_position, cfg.q_velocity, cfg.q_velocity, cfg.q_heading,
+             cfg.q_yaw_accel, cfg.q_jerk, cfg.jerk_v()] + [cfg.q_bias] * (n - 8)
+        self.Qc = np.diag(np.asarray(q, dtype=float))
+        self._manoeuvre = np.zeros(n, dtype=bool)
+        self._manoeuvre[list(MANOEUVRE_STATES)] = True
+        self.sigma0 = {
+            "position": np.full(2, float(cfg.position_sigma)),
+            "heading": np.array([float(cfg.heading_sigma_deg) * DEG]),
+            "yaw_rate": np.array([float(cfg.yaw_rate_sigma_deg) * DEG]),
+            "accel": np.full(2, float(cfg.accel_sigma)),
+        }
+        self.inputs = frozenset({"position", "heading", "yaw_rate", "accel_body", "current"}
+                                | ({f"est/{cfg.current_from}"} if cfg.current_from else set()))
+        self.filter: Any = None
+        self.t: float | None = None
+        self.plane: LocalPlane | None = None
+        self.qscale = QScale()
+        self.noise: dict[tuple[str, str], NoiseEstimate] = {}
+        self.gates: dict[tuple[str, str], Gate] = {}
+        self.monitor = InnovationMonitor(window=200)
+        self.predictor = Predictor(self.model, tuple(cfg.horizons), cfg.accel_decay)
+        self.decimator = Decimator(float(cfg.max_rate))
+        self.seen: Counter[str] = Counter()
+        self.rejected: Counter[str] = Counter()
+        self.resets: Counter[str] = Counter()
+        self.divergences = 0
+        self._fixes: deque[tuple[float, float, float]] = deque()
+        self._heading: tuple[float, float] | None = None
+        self._rate: tuple[float, float] | None = None
+        self._current: tuple[float, float, float] | None = None  # t, v_n, v_e of the water
+        self._nis: float | None = None
+        self._rcond: float | None = None
+        self._init_rng = init_rng
+        self._prediction: tuple[float, list[dict[str, float]]] | None = None
+        #: When a list (the Monte-Carlo harness sets one): (t, kind, NIS, dof, applied,
+        #: whitened innovation S^(-1/2) y) of every update, for the paper's tables.
+        self.trace: list[tuple[float, str, float, int, bool, np.ndarray]] | None = None
+
+    # ------------------------------------------------------------------ inputs
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        if isinstance(rec, Estimate):
+            if rec.name == self.cfg.current_from:
+                self._on_stw(rec)
+            return []
+        kind = rec.kind
+        v = rec.values
+        t = rec.t
+        self.seen[kind] += 1
+        if kind == "position":
+            self._on_position(t, v, rec.source)
+        elif kind == "heading":
+            psi = v.get("heading")
+            if _finite(psi):
+                self._heading = (t, float(psi))
+                self._measure("heading", t, np.array([float(psi)]), rec.source)
+        elif kind == "yaw_rate":
+            r = v.get("r")
+            if _finite(r):
+                self._rate = (t, float(r))
+                self._measure("yaw_rate", t, np.array([float(r)]), rec.source)
+        elif kind == "accel_body":
+            ax, ay = v.get("ax"), v.get("ay")
+            if _finite(ax, ay):
+                self._measure("accel", t, np.array([float(ax), float(ay)]), rec.source)
+        elif kind == "current":
+            set_, drift = v.get("set"), v.get("drift")
+            if _finite(set_, drift):
+                self._current = (t, float(drift) * math.cos(set_), float(drift) * math.sin(set_))
+        return []
+
+    def _on_stw(self, e: Estimate) -> None:
+        c, set_ = e.values.get("current"), e.values.get("current_set")
+        if _finite(c, set_):
+            self._current = (e.t, float(c) * math.cos(set_), float(c) * math.sin(set_))
+
+    def _on_position(self, t: float, v: dict[str, Any], source: str) -> None:
+        lat, lon = v.get("lat"), v.get("lon")
+        if not _finite(lat, lon) or v.get("fix_quality") == 0:
+            self.rejected["position.no_fix"] += 1
+            return
+        if self.plane is None:
+            self.plane = LocalPlane(float(lat), float(lon))
+        pn, pe = self.plane.to_ne(float(lat), float(lon))
+        if self.filter is None:
+            self._fixes.append((t, pn, pe))
+            self._try_start(t)
+            return
+        self._measure("position", t, np.array([pn, pe]), source)
+        self._move_origin()
+
+    # ------------------------------------------------------------------ start
+    def _try_start(self, t: float) -> None:
+        cfg = self.cfg
+        fixes = self._fixes
+        window = float(cfg.init_window)
+        while len(fixes) > 2 and fixes[0][0] < t - max(window, 0.0) - 1.0:
+            fixes.popleft()
+        hd = self._heading
+        if hd is None or t - hd[0] > START_AGE:
+            return
+        if window <= 0.0:  # the paper: the last two fixes
+            if len(fixes) < 2 or fixes[-1][0] - fixes[-2][0] <= 0.0:
+                return
+            (t0, n0, e0), (t1, n1, e1) = fixes[-2], fixes[-1]
+            dt = t1 - t0
+            vn, ve = (n1 - n0) / dt, (e1 - e0) / dt
+            var_p = float(cfg.position_sigma) ** 2
+            var_v = 2.0 * var_p / dt**2
+            cov_pv = var_p / dt
+            pos = (n1, e1)
+        else:
+            pts = [f for f in fixes if f[0] >= t - window]
+            if len(pts) < 3 or pts[-1][0] - pts[0][0] < 0.5 * window:
+                return
+            ts = np.array([p[0] for p in pts]) - t
+            tm = ts.mean()
+            sxx = float(((ts - tm) ** 2).sum())
+            var_p = float(cfg.position_sigma) ** 2
+            fit = [np.polyfit(ts, np.array([p[i] for p in pts]), 1) for i in (1, 2)]
+            vn, ve = float(fit[0][0]), float(fit[1][0])
+            pos = (float(fit[0][1]), float(fit[1][1]))  # the line at t
+            # the line's value and slope at t: var a = σ²(1/n + t̄²/Sxx), var b = σ²/Sxx,
+            # cov(a, b) = −σ² t̄/Sxx
+            var_v = var_p / sxx
+            cov_pv = -var_p * tm / sxx
+            var_p = var_p * (1.0 / len(pts) + tm * tm / sxx)
+        r = self._rate[1] if self._rate is not None and t - self._rate[0] <= START_AGE else 0.0
+        var_r = (float(cfg.yaw_rate_sigma_deg) * DEG) ** 2 if self._rate is not None else START_RATE_SIGMA**2
+        psi = hd[1]
+        m = self.model
+        x0 = m.from_motion(pos[0], pos[1], vn, ve, psi, r)
+        # P0: eqs. (20)-(22), the errors of the starting values spread into the state
+        C = np.zeros((6, 6))
+        C[0, 0] = C[1, 1] = var_p
+        C[2, 2] = C[3, 3] = var_v
+        C[0, 2] = C[2, 0] = C[1, 3] = C[3, 1] = cov_pv
+        C[4, 4] = (float(cfg.heading_sigma_deg) * DEG) ** 2
+        C[5, 5] = var_r
+        J = m.from_motion_jacobian(vn, ve, psi)
+        P0 = J @ C @ J.T
+        P0[6, 6] = P0[7, 7] = (float(cfg.accel_sigma) if cfg.mode == "paper" else START_ACCEL_SIGMA) ** 2
+        for i in range(8, m.n):
+            P0[i, i] = START_BIAS_SIGMA**2
+        if self._init_rng is not None:  # a Monte-Carlo run's initial error, eq. (13)
+            x0 = self._init_rng.multivariate_normal(x0, 0.5 * (P0 + P0.T), method="cholesky")
+            x0[PSI] = wrap_2pi(x0[PSI])
+        self.filter = self._make_filter(x0, P0)
+        self.t = t
+        self._fixes.clear()
+
+    def _make_filter(self, x0: np.ndarray, P0: np.ndarray) -> Any:
+        cfg = self.cfg
+        if cfg.filter == "ekf":
+            from .ekf import Ekf
+
+            return Ekf(self.model, x0, P0, float(cfg.substep))
+        if cfg.filter == "ukf":
+            from .ukf import Ukf
+
+            return Ukf(self.model, x0, P0, float(cfg.substep))
+        from .enkf import Enkf
+
+        return Enkf(self.model, x0, P0, float(cfg.substep), members=cfg.members, seed=cfg.seed,
+                    inflation=cfg.inflation)
+
+    # ------------------------------------------------------------------ one update
+    def _Q(self) -> np.ndarray:
+        s = self.qscale.scale
+        if s == 1.0:
+            return self.Qc
+        Q = self.Qc.copy()
+        Q[self._manoeuvre, self._manoeuvre] *= s
+        return Q
+
+    def _measure(self, kind: str, t: float, z: np.ndarray, source: str) -> None:
+        f = self.filter
+        if f is None or self.t is None:
+            return
+        block = self.decimator.push(kind, source, t, z, KINDS[kind].angle_rows)
+        if block is None:
+            return
+        t, z, samples = block
+        dt = t - self.t
+        if dt < -0.5:
+            self.rejected[f"{kind}.late"] += 1
+            return
+        cfg = self.cfg
+        key = (kind, source)
+        noise = self.noise.get(key)
+        if noise is None:  # an average of `samples` readings: that much less variance
+            noise = self.noise[key] = NoiseEstimate(self.sigma0[kind] ** 2 / samples, SIGMA_FLOOR[kind])
+        gate = self.gates.get(key)
+        if gate is None:
+            gate = self.gates[key] = Gate()
+        if dt > 0.0:
+            f.predict(dt, self._Q())
+            self.t = t
+        dof = KINDS[kind].dim
+        R_ = noise.R()
+        inn = f.update(kind, z, R_, gate.limit(dof) if cfg.gate else None)
+        self._nis, self._rcond = inn.nis, inn.rcond
+        if self.trace is not None:
+            self.trace.append((t, kind, inn.nis, dof, inn.applied, _whiten(inn.y, inn.S)))
+        if inn.rcond < RCOND_MIN or not np.all(np.isfinite(f.x)):
+            self._diverged(f"rcond {inn.rcond:.2e} at a {kind} update")
+            return
+        if not inn.applied:
+            self.monitor.gated(kind)
+            self.rejected[f"{kind}.gate"] += 1
+            gate.result(False)
+            if kind == "position" and gate.in_row >= gate.run:
+                self._position_jump(z, R_)
+            return
+        if gate.result(True):
+            self.resets[f"{kind}.gate_released"] += 1
+            if cfg.adapt_q:
+                self.qscale.bump(10.0)
+        self.monitor.update(kind, inn.nis, dof)
+        if cfg.adapt_q:
+            self.qscale.add(t, inn.nis, dof)
+        if cfg.adapt_r and not self.qscale.raised:
+            noise.add(inn.y, inn.S, R_)
+
+    def _position_jump(self, z: np.ndarray, R_: np.ndarray) -> None:
+        """Fixes kept out `run` times in a row: the GNSS position jumped (or the vessel
+        was moved). The position starts again from the new fix; velocities, heading and
+        the rest are kept."""
+        self.filter.reset_position(z, R_)
+        self.resets["position_jump"] += 1
+        for k, g in self.gates.items():
+            if k[0] == "position":
+                g.in_row = 0
+
+    def _diverged(self, why: str) -> None:
+        self.divergences += 1
+        self.resets["diverged"] += 1
+        self.monitor.reset(why, self.t)
+        self.filter = None
+        self.t = None
+        self.qscale.reset()
+        self._fixes.clear()
+
+    def _move_origin(self) -> None:
+        f = self.filter
+        if f is None or self.plane is None:
+            return
+        x = f.x
+        if math.hypot(x[0], x[1]) <= self.cfg.origin_radius:
+            return
+        lat, lon = self.plane.to_geodetic(float(x[0]), float(x[1]))
+        self.plane = LocalPlane(lat, lon)
+        f.shift(float(x[0]), float(x[1]))
+        self.resets["origin_moved"] += 1
+
+    # ------------------------------------------------------------------ output
+    def tick(self, t: float) -> list[Estimate]:
+        f = self.filter
+        if f is None or self.t is None or self.plane is None:
+            return []
+        m = self.model
+        x = f.x
+        P = f.P
+        if t > self.t:
+            x = rk4(m.f, x, t - self.t, float(self.cfg.substep))
+            x[PSI] = wrap_2pi(x[PSI])
+        elif t < self.t - 1e-9:
+            t = self.t
+        std = np.sqrt(np.maximum(np.diag(P), 0.0))
+        body = m.body(x)
+        Jb = m.body_jacobian(x)
+        body_std = np.sqrt(np.maximum(np.diag(Jb @ P @ Jb.T), 0.0))
+        vn, ve = m.ground_velocity(x)
+        u, v, a_u, a_v = (float(b) for b in body)
+        lat, lon = self.plane.to_geodetic(float(x[0]), float(x[1]))
+        drift_water = None
+        cur = self._current
+        if cur is not None:
+            psi = float(x[PSI])
+            cu = cur[1] * math.cos(psi) + cur[2] * math.sin(psi)
+            cv = -cur[1] * math.sin(psi) + cur[2] * math.cos(psi)
+            if math.hypot(u - cu, v - cv) > 0.1:
+                drift_water = math.atan2(v - cv, u - cu)
+        names = m.names
+        std_map = {names[i]: float(std[i]) for i in range(m.n)}
+        std_map.update({"u": float(body_std[0]), "v": float(body_std[1]),
+                        "a_u": float(body_std[2]), "a_v": float(body_std[3])})
+        values: dict[str, Any] = {
+            "lat": lat, "lon": lon, "x": float(x[0]), "y": float(x[1]),
+            "u": u, "v": v, "r": float(x[R]), "heading": float(x[PSI]), "a_u": a_u, "a_v": a_v,
+            "sog": math.hypot(vn, ve), "cog": float(wrap_2pi(math.atan2(ve, vn))),
+            "drift_angle": math.atan2(v, u) if math.hypot(u, v) > 0.1 else 0.0,
+            "drift_angle_water": drift_water,
+            "nis": self._nis, "rcond": self._rcond, "q_scale": round(self.qscale.scale, 3),
+            "model": m.name, "filter": self.cfg.filter, "mode": self.cfg.mode,
+            "std": std_map,
+            "predicted": self._predicted(t, x, P),
+        }
+        if m.bias:
+            values["accel_bias"] = [float(x[8]), float(x[9])]
+        return [Estimate("manoeuvre", "manoeuvre", t, values)]
+
+    def _predicted(self, t: float, x: np.ndarray, P: np.ndarray) -> list[dict[str, float]]:
+        """The prediction rows, made afresh at most `predict_rate` times a second of data
+        time; in between, the last rows with `dt` counted from this estimate's time."""
+        rate = self.cfg.predict_rate
+        made = self._prediction
+        if made is None or rate <= 0.0 or t - made[0] >= 1.0 / rate - 1e-6 or t < made[0]:
+            rows = self.predictor.predicted(x, P, self.Qc, self.plane.to_geodetic)  # type: ignore[union-attr]
+            self._prediction = made = (t, rows)
+        age = t - made[0]
+        if age == 0.0:
+            return made[1]
+        return [{**row, "dt": round(row["dt"] - age, 6)} for row in made[1]]
+
+    def health(self) -> dict[str, Any]:
+        out = self.monitor.snapshot()
+        seen = {k: self.seen.get(k, 0) for k in ("position", "heading", "yaw_rate", "accel_body", "current")}
+        out["seen"] = seen
+        out["missing"] = {k: COSTS[k] for k in COSTS if not seen.get(k)}
+        out["running"] = self.filter is not None
+        out["model"], out["filter"], out["mode"] = self.model.name, self.cfg.filter, self.cfg.mode
+        out["divergences"] = self.divergences
+        out["rejected"] = dict(sorted(self.rejected.items()))
+        out["events"] = dict(sorted(self.resets.items()))
+        out["q_scale"] = round(self.qscale.scale, 3)
+        out["nis_ratio"] = round(self.qscale.ratio, 3)
+        out["nis_in_band"] = self.qscale.in_band
+        out["rcond"] = self._rcond
+        out["sensor_sigma"] = {f"{k}/{s}": [round(x, 6) for x in n.sigma()] for (k, s), n in sorted(self.noise.items())}
+        if self.filter is not None and self.filter.ensemble_size():
+            out["members"] = self.filter.ensemble_size()
+        return out
+
+
+def _whiten(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """L⁻¹ y with S = L Lᵀ: the innovation in units of its own σ."""
+    try:
+        return np.linalg.solve(np.linalg.cholesky(S), y)
+    except np.linalg.LinAlgError:
+        return np.full_like(y, np.nan)
+
+
+def _finite(*xs: Any) -> bool:
+    return all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)
+
+
+__all__ = ["ManoeuvreCore", "wrap_pi"]

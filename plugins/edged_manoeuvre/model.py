@@ -1,0 +1,174 @@
+"""What the two kinematic models share: angles, Runge–Kutta, measurement rows.
+
+Both models (seed 002, Table 1) are continuous-time, ẋ = f(x) + w, measured at
+discrete times, z_k = h(x(t_k)) + v_k (Table 2). The filters integrate f with the
+classical fourth-order Runge–Kutta method in sub-steps of at most `substep` seconds
+(paper: δt = 0.005 s inside Δt = 0.1 s, §3.1), so a measurement is met at its own
+time whatever the sensors' rates.
+
+Measurements are updated one sensor at a time with that sensor's rows of h only
+(`KINDS`): a position fix (p_n, p_e), a heading (ψ), a yaw rate (r), the body
+accelerations (a_x, a_y as the accelerometers read them). Angle rows are wrapped to
+(−π, π] in every residual, and ψ is kept in [0, 2π): the paper's first named failure
+(heading switching between 0 and 360° blew the innovations up, §5.3) cannot happen.
+
+With `bias` the state has two more entries, the accelerometers' slowly wandering
+biases (b_x, b_y), seen only through the accelerometer rows: a MEMS unit's few mm/s²
+of bias, taken for acceleration, would otherwise move the velocities by several cm/s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+#: Index of ψ (heading, rad, from north, clockwise) and r (yaw rate) in both models.
+PSI, R = 4, 5
+#: Index of the accelerometer biases when the state has them.
+BX, BY = 8, 9
+
+
+def wrap_pi(a: np.ndarray | float) -> np.ndarray | float:
+    """An angle or angle difference in (−π, π]."""
+    return math.pi - (math.pi - a) % TWO_PI
+
+
+def wrap_2pi(a: np.ndarray | float) -> np.ndarray | float:
+    """An angle in [0, 2π)."""
+    w = np.mod(a, TWO_PI)
+    if isinstance(w, np.ndarray):
+        return np.where(w >= TWO_PI, 0.0, w)
+    return 0.0 if w >= TWO_PI else float(w)  # -1e-17 % 2π rounds to 2π
+
+
+def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None) -> float:
+    """The mean direction of `angles` (weights may be negative, as unscented weights
+    are): atan2 of the weighted mean of sines and cosines, in [0, 2π)."""
+    w = np.full(len(angles), 1.0 / len(angles)) if weights is None else weights
+    return float(wrap_2pi(math.atan2(float(w @ np.sin(angles)), float(w @ np.cos(angles)))))
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One sensor's rows of h: how many, and which of them are angles."""
+
+    name: str
+    dim: int
+    angle_rows: tuple[int, ...] = ()
+
+
+#: The measurement kinds of Table 2, split by sensor.
+KINDS = {
+    "position": Kind("position", 2),
+    "heading": Kind("heading", 1, (0,)),
+    "yaw_rate": Kind("yaw_rate", 1),
+    "accel": Kind("accel", 2),
+}
+
+
+def rk4(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float, substep: float) -> np.ndarray:
+    """x(t + dt) from ẋ = f(x) by classical Runge–Kutta in ⌈dt/substep⌉ equal steps.
+
+    `x` may be one state (n,) or an ensemble (N, n): f works on the last axis.
+    """
+    if dt <= 0.0:
+        return x
+    steps = max(1, math.ceil(dt / substep - 1e-9))
+    h = dt / steps
+    for _ in range(steps):
+        k1 = f(x)
+        k2 = f(x + 0.5 * h * k1)
+        k3 = f(x + 0.5 * h * k2)
+        k4 = f(x + h * k3)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
+
+
+def transition(F: Callable[[np.ndarray], np.ndarray], f: Callable[[np.ndarray], np.ndarray],
+               x: np.ndarray, dt: float, substep: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x(t + dt), Φ): the state by Runge–Kutta and the state transition matrix of the
+    linearised model over the same sub-steps, Φ = Π (I + A_k h + A_k² h²/2) with A_k
+    the Jacobian ∂f/∂x at the sub-step's start (second order in h, as the continuous-
+    discrete EKF's covariance needs; Frogerais et al. 2012)."""
+    n = x.shape[0]
+    eye = _eye(n)
+    if dt <= 0.0:
+        return x, eye.copy()
+    steps = max(1, math.ceil(dt / substep - 1e-9))
+    h = dt / steps
+    phi = None
+    for _ in range(steps):
+        Ah = F(x) * h
+        step = eye + Ah + 0.5 * (Ah @ Ah)
+        phi = step if phi is None else step @ phi
+        x = rk4(f, x, h, h)
+    return x, phi
+
+
+_EYES: dict[int, np.ndarray] = {}
+
+
+def _eye(n: int) -> np.ndarray:
+    e = _EYES.get(n)
+    if e is None:
+        e = _EYES[n] = np.eye(n)
+        e.flags.writeable = False
+    return e
+
+
+@dataclass
+class Innovation:
+    """One update's innovation: residual y (angle rows wrapped), its covariance S, the
+    NIS yᵀS⁻¹y (eq. 25), the reciprocal condition number of S in the 1-norm (eq. 23),
+    and whether the update was applied (False: gated out)."""
+
+    y: np.ndarray
+    S: np.ndarray
+    nis: float
+    rcond: float
+    applied: bool
+
+
+def rcond(S: np.ndarray) -> float:
+    """Eq. (23): 1 / (‖S⁻¹‖₁ ‖S‖₁); 0 for a singular or non-finite S."""
+    if S.shape == (1, 1):
+        return 1.0 if math.isfinite(S[0, 0]) and S[0, 0] > 0.0 else 0.0
+    if S.shape == (2, 2):  # closed form: the filter's usual case
+        a, b, c, d = float(S[0, 0]), float(S[0, 1]), float(S[1, 0]), float(S[1, 1])
+        det = a * d - b * c
+        if not (math.isfinite(det) and det != 0.0):
+            return 0.0
+        norm = max(abs(a) + abs(c), abs(b) + abs(d))
+        norm_adj = max(abs(d) + abs(c), abs(b) + abs(a))  # ‖S⁻¹‖₁ = ‖adj S‖₁ / |det S|
+        return abs(det) / (norm * norm_adj)
+    if not np.all(np.isfinite(S)):
+        return 0.0
+    try:
+        inv = np.linalg.inv(S)
+    except np.linalg.LinAlgError:
+        return 0.0
+    return float(1.0 / (np.abs(inv).sum(axis=0).max() * np.abs(S).sum(axis=0).max()))
+
+
+def residual(kind: Kind, z: np.ndarray, zp: np.ndarray) -> np.ndarray:
+    """z − zp with the kind's angle rows wrapped to (−π, π]."""
+    y = np.asarray(z, dtype=float) - zp
+    for i in kind.angle_rows:
+        y[..., i] = wrap_pi(y[..., i])
+    return y
+
+
+def inv_small(S: np.ndarray) -> np.ndarray:
+    """S⁻¹, in closed form for 1 × 1 and 2 × 2 (the sensors' sizes here)."""
+    if S.shape == (1, 1):
+        return np.array([[1.0 / S[0, 0]]])
+    if S.shape == (2, 2):
+        a, b, c, d = S[0, 0], S[0, 1], S[1, 0], S[1, 1]
+        det = a * d - b * c
+        return np.array([[d, -b], [-c, a]]) / det
+    return np.linalg.inv(S)
