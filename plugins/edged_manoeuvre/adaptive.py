@@ -52,8 +52,8 @@ def band(dof: int) -> tuple[float, float]:
 
 
 class QScale:
-    def __init__(self, window: float = 2.0, tau_up: float = 1.0, tau_down: float = 20.0,
-                 max_scale: float = 1000.0) -> None:
+    def __init__(self, window: float = 2.0, tau_up: float = 1.0, tau_down: float = 10.0,
+                 max_scale: float = 100.0) -> None:
         self.window = window
         self.tau_up = tau_up
         self.tau_down = tau_down

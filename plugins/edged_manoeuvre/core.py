@@ -55,8 +55,15 @@ SIGMA_FLOOR = {
     "yaw_rate": np.array([0.0005 * DEG]),
     "accel": np.full(2, 0.001),
 }
-#: States whose process noise the NIS adaptation scales (the manoeuvring ones).
-MANOEUVRE_STATES = (2, 3, 5, 6, 7)
+#: The NIS adaptation's two groups: which sensors' NIS drives each, and which states'
+#: process noise it scales. A rudder order shows in heading and rate of turn and is
+#: the yaw states' business; an engine order or the sway of a turn shows in positions
+#: and accelerometers and is the translation's. Pooling them would let three
+#: consistent sensors hide the fourth's inconsistency.
+GROUPS = {
+    "yaw": (("heading", "yaw_rate"), (5,)),
+    "translation": (("position", "accel"), (2, 3, 6, 7)),
+}
 #: Health text of each input's absence.
 COSTS = {
     "position": "no GNSS position: the filter cannot start",
@@ -75,8 +82,6 @@ class ManoeuvreCore:
         q = [cfg.q_position, cfg.q_position, cfg.q_velocity, cfg.q_velocity, cfg.q_heading,
              cfg.q_yaw_accel, cfg.q_jerk, cfg.jerk_v()] + [cfg.q_bias] * (n - 8)
         self.Qc = np.diag(np.asarray(q, dtype=float))
-        self._manoeuvre = np.zeros(n, dtype=bool)
-        self._manoeuvre[list(MANOEUVRE_STATES)] = True
         self.sigma0 = {
             "position": np.full(2, float(cfg.position_sigma)),
             "heading": np.array([float(cfg.heading_sigma_deg) * DEG]),
@@ -88,7 +93,8 @@ class ManoeuvreCore:
         self.filter: Any = None
         self.t: float | None = None
         self.plane: LocalPlane | None = None
-        self.qscale = QScale()
+        self.qscales = {g: QScale() for g in GROUPS}
+        self._group_of = {k: g for g, (kinds, _) in GROUPS.items() for k in kinds}
         self.noise: dict[tuple[str, str], NoiseEstimate] = {}
         self.gates: dict[tuple[str, str], Gate] = {}
         self.monitor = InnovationMonitor(window=200)
@@ -239,12 +245,17 @@ class ManoeuvreCore:
 
     # ------------------------------------------------------------------ one update
     def _Q(self) -> np.ndarray:
-        s = self.qscale.scale
-        if s == 1.0:
+        if all(q.scale == 1.0 for q in self.qscales.values()):
             return self.Qc
         Q = self.Qc.copy()
-        Q[self._manoeuvre, self._manoeuvre] *= s
+        for g, (_, states) in GROUPS.items():
+            for i in states:
+                Q[i, i] *= self.qscales[g].scale
         return Q
+
+    @property
+    def q_raised(self) -> bool:
+        return any(q.raised for q in self.qscales.values())
 
     def _measure(self, kind: str, t: float, z: np.ndarray, source: str) -> None:
         f = self.filter
@@ -288,11 +299,11 @@ class ManoeuvreCore:
         if gate.result(True):
             self.resets[f"{kind}.gate_released"] += 1
             if cfg.adapt_q:
-                self.qscale.bump(10.0)
+                self.qscales[self._group_of[kind]].bump(10.0)
         self.monitor.update(kind, inn.nis, dof)
         if cfg.adapt_q:
-            self.qscale.add(t, inn.nis, dof)
-        if cfg.adapt_r and not self.qscale.raised:
+            self.qscales[self._group_of[kind]].add(t, inn.nis, dof)
+        if cfg.adapt_r and not self.q_raised:
             noise.add(inn.y, inn.S, R_)
 
     def _position_jump(self, z: np.ndarray, R_: np.ndarray) -> None:
@@ -311,7 +322,8 @@ class ManoeuvreCore:
         self.monitor.reset(why, self.t)
         self.filter = None
         self.t = None
-        self.qscale.reset()
+        for q in self.qscales.values():
+            q.reset()
         self._fixes.clear()
 
     def _move_origin(self) -> None:
@@ -364,7 +376,7 @@ class ManoeuvreCore:
             "sog": math.hypot(vn, ve), "cog": float(wrap_2pi(math.atan2(ve, vn))),
             "drift_angle": math.atan2(v, u) if math.hypot(u, v) > 0.1 else 0.0,
             "drift_angle_water": drift_water,
-            "nis": self._nis, "rcond": self._rcond, "q_scale": round(self.qscale.scale, 3),
+            "nis": self._nis, "rcond": self._rcond, "q_scale": {g: round(q.scale, 3) for g, q in self.qscales.items()},
             "model": m.name, "filter": self.cfg.filter, "mode": self.cfg.mode,
             "std": std_map,
             "predicted": self._predicted(t, x, P),
@@ -396,9 +408,9 @@ class ManoeuvreCore:
         out["divergences"] = self.divergences
         out["rejected"] = dict(sorted(self.rejected.items()))
         out["events"] = dict(sorted(self.resets.items()))
-        out["q_scale"] = round(self.qscale.scale, 3)
-        out["nis_ratio"] = round(self.qscale.ratio, 3)
-        out["nis_in_band"] = self.qscale.in_band
+        out["q_scale"] = {g: round(q.scale, 3) for g, q in self.qscales.items()}
+        out["nis_ratio"] = {g: round(q.ratio, 3) for g, q in self.qscales.items()}
+        out["nis_in_band"] = {g: q.in_band for g, q in self.qscales.items()}
         out["rcond"] = self._rcond
         out["sensor_sigma"] = {f"{k}/{s}": [round(x, 6) for x in n.sigma()] for (k, s), n in sorted(self.noise.items())}
         if self.filter is not None and self.filter.ensemble_size():

@@ -93,8 +93,9 @@ def transition(F: Callable[[np.ndarray], np.ndarray], f: Callable[[np.ndarray], 
                x: np.ndarray, dt: float, substep: float) -> tuple[np.ndarray, np.ndarray]:
     """(x(t + dt), Φ): the state by Runge–Kutta and the state transition matrix of the
     linearised model over the same sub-steps, Φ = Π (I + A_k h + A_k² h²/2) with A_k
-    the Jacobian ∂f/∂x at the sub-step's start (second order in h, as the continuous-
-    discrete EKF's covariance needs; Frogerais et al. 2012)."""
+    the Jacobian ∂f/∂x at the sub-step's midpoint (x + h/2·f(x), RK4's own second
+    stage): second order in h, as the continuous-discrete EKF's covariance needs
+    (Frogerais et al. 2012)."""
     n = x.shape[0]
     eye = _eye(n)
     if dt <= 0.0:
@@ -103,10 +104,15 @@ def transition(F: Callable[[np.ndarray], np.ndarray], f: Callable[[np.ndarray], 
     h = dt / steps
     phi = None
     for _ in range(steps):
-        Ah = F(x) * h
+        k1 = f(x)
+        xm = x + 0.5 * h * k1
+        Ah = F(xm) * h
         step = eye + Ah + 0.5 * (Ah @ Ah)
         phi = step if phi is None else step @ phi
-        x = rk4(f, x, h, h)
+        k2 = f(xm)
+        k3 = f(x + 0.5 * h * k2)
+        k4 = f(x + h * k3)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     return x, phi
 
 
