@@ -13,8 +13,10 @@ line fit (σ of the fit in P0), or in `paper` mode the first two fixes by two-po
 differencing with P0 of eqs. (20)–(22).
 
 Monitoring (seed 002 §4): every update's NIS against its χ² band and rcond(S)
-(eq. 23); rcond below 1e-10, or a state that is not finite, is a divergence: counted,
-reported, and the filter starts again from the next measurements. Gated updates,
+(eq. 23); rcond below 1e-10 is a divergence, and so is a state or covariance that is
+not finite or a variance beyond any physical sense (`VAR_MAX`: a one-row S, as a
+heading's, always has rcond 1): counted, reported, and the filter starts again from
+the next measurements. Gated updates,
 released gates, resets and the process-noise scale are in health.
 """
 
@@ -286,8 +288,12 @@ class ManoeuvreCore:
         self._nis, self._rcond = inn.nis, inn.rcond
         if self.trace is not None:
             self.trace.append((t, kind, inn.nis, dof, inn.applied, _whiten(inn.y, inn.S)))
-        if inn.rcond < RCOND_MIN or not np.all(np.isfinite(f.x)):
-            self._diverged(f"rcond {inn.rcond:.2e} at a {kind} update")
+        if inn.rcond < RCOND_MIN:
+            self._diverged(f"rcond(S) {inn.rcond:.2e} at a {kind} update")
+            return
+        why = _insane(f.x, f.P)
+        if why:
+            self._diverged(f"{why} after a {kind} update")
             return
         if not inn.applied:
             self.monitor.gated(kind)
@@ -416,6 +422,23 @@ class ManoeuvreCore:
         if self.filter is not None and self.filter.ensemble_size():
             out["members"] = self.filter.ensemble_size()
         return out
+
+
+#: Variances beyond these are a filter that has lost itself, whatever rcond says (a
+#: one-row S always has rcond 1): positions (m²), velocities (m²/s²), heading (rad²).
+VAR_MAX = {0: 1e10, 1: 1e10, 2: 1e4, 3: 1e4, 4: 1e2}
+
+
+def _insane(x: np.ndarray, P: np.ndarray) -> str | None:
+    if not np.all(np.isfinite(x)):
+        return "a state that is not finite"
+    d = np.diag(P)
+    if not np.all(np.isfinite(d)) or np.any(d < -1e-9):
+        return "a covariance that is not finite or not positive"
+    for i, top in VAR_MAX.items():
+        if d[i] > top:
+            return f"variance {d[i]:.3g} of state {i} beyond {top:g}"
+    return None
 
 
 def _whiten(y: np.ndarray, S: np.ndarray) -> np.ndarray:

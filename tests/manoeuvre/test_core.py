@@ -1,0 +1,247 @@
+"""The manoeuvre core as the worker host drives it: starting, what it publishes, and
+what it does with sensors that are not what the configuration says."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from manoeuvre_stream import T0, Manoeuvre, run, truth_at
+from pydantic import ValidationError
+
+from edged.estimates import ESTIMATE_KINDS
+from edged.geo import LocalPlane
+from edged.records import Estimate, Measurement
+from edged_manoeuvre.config import ManoeuvreConfig
+from edged_manoeuvre.core import ManoeuvreCore
+from edged_manoeuvre.predict import ellipse
+
+STRAIGHT = Manoeuvre(duration=90.0, heading_deg=30.0)
+
+
+def _core(**kw) -> ManoeuvreCore:
+    return ManoeuvreCore(ManoeuvreConfig(type="manoeuvre", **kw))
+
+
+def _voyage(base: Manoeuvre = STRAIGHT, **kw) -> Manoeuvre:
+    return Manoeuvre(**{**base.__dict__, "truth": [], **kw})
+
+
+def test_the_estimate_has_every_field_of_the_contract():
+    core = _core()
+    out = run(core, _voyage().measurements())
+    e = out[-1]
+    names = set(ESTIMATE_KINDS["manoeuvre"].field_names) - {"t", "kind", "stale", "age"}  # the host's
+    assert names <= set(e.values), names - set(e.values)
+    v = e.values
+    assert v["model"] == "ctra" and v["filter"] == "ekf"
+    assert {"x", "y", "u", "v", "heading", "r", "a_u", "a_v"} <= set(v["std"])
+    assert [p["dt"] for p in v["predicted"]][:4] == pytest.approx([10.0, 30.0, 60.0, 120.0], abs=1.0)
+    assert 0.0 <= v["heading"] < 2 * math.pi and 0.0 <= v["cog"] < 2 * math.pi
+    assert v["drift_angle"] == pytest.approx(math.atan2(v["v"], v["u"]))
+    assert v["drift_angle_water"] is None  # no current known
+
+
+def test_nothing_is_published_before_a_heading_and_a_second_of_fixes():
+    core = _core()
+    plane = LocalPlane(57.6, 11.5)
+    for k in range(30):  # positions only
+        lat, lon = plane.to_geodetic(0.5 * k, 0.0)
+        core.step(Measurement("position", "gnss", T0 + 0.1 * k, {"lat": lat, "lon": lon}))
+    assert core.tick(T0 + 3.0) == []
+    assert "heading" in core.health()["missing"]
+    core.step(Measurement("heading", "gyro", T0 + 3.0, {"heading": 0.0}))
+    lat, lon = plane.to_geodetic(15.0, 0.0)
+    core.step(Measurement("position", "gnss", T0 + 3.0, {"lat": lat, "lon": lon}))
+    (e,) = core.tick(T0 + 3.05)
+    # started from the line through the last second of fixes: 5 m/s north
+    assert e.values["u"] == pytest.approx(5.0, abs=0.01) and e.values["v"] == pytest.approx(0.0, abs=0.01)
+
+
+def test_paper_mode_starts_from_two_fixes_with_the_papers_p0():
+    """Eqs. (16)-(22): velocity from two-point differencing, P0 with R/Δt and 2R/Δt²."""
+    core = _core(mode="paper")
+    plane = LocalPlane(57.6, 11.5)
+    core.step(Measurement("heading", "gyro", T0, {"heading": 0.0}))
+    for k, n in enumerate((0.0, 0.6)):
+        lat, lon = plane.to_geodetic(n, 0.0)
+        core.step(Measurement("position", "gnss", T0 + 0.1 * k, {"lat": lat, "lon": lon}))
+    f = core.filter
+    assert f is not None and f.x[2] == pytest.approx(6.0, abs=1e-4)  # u = Δn/Δt
+    R11 = 1.0  # Table 3: σ = 1 m
+    assert f.P[0, 0] == pytest.approx(R11) and f.P[2, 2] == pytest.approx(2 * R11 / 0.01, rel=1e-5)
+    assert f.P[0, 2] == pytest.approx(R11 / 0.1)
+    assert core.cfg.substep == 0.005 and not core.cfg.adapt_q and not core.cfg.imu_bias
+
+
+def test_a_gnss_jump_is_kept_out_then_taken_as_the_new_position():
+    """150 m east for 10 s (the `faults` scenario's jump): gated five times, then the
+    position starts again from the fixes; velocities never jump."""
+    voyage = _voyage()
+    core = _core()
+    plane = LocalPlane(57.6, 11.5)
+    ms = []
+    for m in voyage.measurements():
+        if m.kind == "position" and 50.0 <= m.t - T0 < 60.0:
+            n, e = plane.to_ne(m.values["lat"], m.values["lon"])
+            lat, lon = plane.to_geodetic(n, e + 150.0)
+            m = Measurement("position", m.source, m.t, {"lat": lat, "lon": lon})
+        ms.append(m)
+    out = run(core, ms)
+    h = core.health()
+    assert h["rejected"]["position.gate"] >= 10 and h["events"]["position_jump"] == 2
+    assert core.divergences == 0
+    late = [e for e in out if e.t - T0 > 75.0]
+    tr = voyage.truth
+    assert max(abs(e.values["u"] - truth_at(tr, e.t)[3]) for e in late) < 0.1
+    assert max(abs(e.values["v"] - truth_at(tr, e.t)[4]) for e in late) < 0.1
+
+
+def _spoil_blown_up(f) -> None:
+    f.P = np.diag(np.full(len(f.x), 1e30))  # every variance beyond physical sense
+
+
+def _spoil_singular(f) -> None:
+    big = np.zeros_like(f.P)
+    big[0:2, 0:2] = 1e20  # north and east perfectly correlated: S has rank 1
+    f.P = f.P + big
+
+
+@pytest.mark.parametrize("spoil", [_spoil_blown_up, _spoil_singular], ids=["blown_up", "singular_S"])
+def test_a_diverged_filter_is_counted_and_starts_again(spoil):
+    voyage = _voyage()
+    core = _core()
+    ms = list(voyage.measurements())
+    half = len(ms) // 2
+    run(core, ms[:half])
+    spoil(core.filter)
+    out = run(core, ms[half:])
+    assert core.divergences == 1 and core.health()["events"]["diverged"] == 1
+    h = core.health()
+    assert h["resets"] == 1 and ("rcond" in h["last_reset"] or "variance" in h["last_reset"])
+    assert out and core.filter is not None  # running again from the next measurements
+    last = out[-1]
+    assert abs(last.values["u"] - truth_at(voyage.truth, last.t)[3]) < 0.2
+
+
+def test_the_plane_moves_with_the_vessel_without_a_jump():
+    voyage = _voyage(duration=150.0, u=20.0)  # 3 km
+    core = _core(origin_radius=1000.0)
+    out = run(core, voyage.measurements())
+    assert core.health()["events"]["origin_moved"] >= 2
+    plane = LocalPlane(57.6, 11.5)
+    errs = []
+    for e in out[200:]:
+        n, ea = plane.to_ne(e.values["lat"], e.values["lon"])
+        tr = truth_at(voyage.truth, e.t)
+        errs.append(math.hypot(n - tr[1], ea - tr[2]))
+    assert max(errs) < 3.0  # metres, whatever the origin
+
+
+def test_each_sensors_noise_is_learned():
+    """A 3 m GNSS and a 0.3° gyro configured as 1.5 m and 0.2°: learned within 15 %,
+    and their NIS back near its degrees of freedom."""
+    voyage = _voyage(duration=240.0, position_sigma=3.0, heading_sigma_deg=0.3)
+    core = _core()
+    run(core, voyage.measurements())
+    h = core.health()
+    pos = h["sensor_sigma"]["position/gnss"]
+    hdg = h["sensor_sigma"]["heading/gyro"]
+    assert pos == pytest.approx([3.0, 3.0], rel=0.15)
+    assert math.degrees(hdg[0]) == pytest.approx(0.3, rel=0.15)
+    assert h["innovation"]["position"]["nis_mean"] == pytest.approx(2.0, rel=0.3)
+
+
+def test_sensors_faster_than_ten_hertz_are_averaged():
+    core = _core()
+    run(core, _voyage(duration=60.0).measurements())
+    upd = core.health()["innovation"]
+    # 50 Hz rate gyro and accelerometers: about 10 updates a second each, not 50
+    assert 450 < upd["yaw_rate"]["updates"] < 620 and 450 < upd["accel"]["updates"] < 620
+    assert 550 < upd["position"]["updates"] < 620  # 10 Hz: sample by sample
+    every = _core(max_rate=0.0)
+    run(every, _voyage(duration=60.0).measurements())
+    assert every.health()["innovation"]["yaw_rate"]["updates"] > 2800
+
+
+def test_drift_through_the_water_with_a_known_current():
+    core = _core()
+    ms = list(_voyage().measurements())
+    # 0.5 m/s toward the east
+    ms.insert(5, Measurement("current", "forecast", ms[5].t, {"set": math.pi / 2, "drift": 0.5}))
+    out = run(core, ms)
+    v = out[-1].values
+    psi = v["heading"]
+    cu, cv = 0.5 * math.sin(psi), 0.5 * math.cos(psi)
+    assert v["drift_angle_water"] == pytest.approx(math.atan2(v["v"] - cv, v["u"] - cu), abs=1e-9)
+
+
+def test_drift_through_the_water_from_the_stw_estimator():
+    core = _core(current_from="stw")
+    assert "est/stw" in core.inputs
+    ms = list(_voyage().measurements())
+    out = []
+    for i, m in enumerate(ms):
+        core.step(m)
+        if i == 50:
+            core.step(Estimate("stw", "stw", m.t, {"current": 0.5, "current_set": math.pi / 2}))
+    out = core.tick(ms[-1].t + 0.05)
+    assert out[0].values["drift_angle_water"] is not None
+
+
+def test_prediction_of_a_steady_turn_follows_the_circle_and_its_ellipse_grows():
+    voyage = _voyage(duration=200.0, r_deg=0.5, heading_deg=0.0)
+    core = _core()
+    out = run(core, voyage.measurements())
+    plane = LocalPlane(57.6, 11.5)
+    fresh = [e for e in out if e.t - T0 > 40.0 and e.values["predicted"][0]["dt"] == 10.0
+             and e.t - T0 + 60.0 <= voyage.duration]
+    assert fresh
+    model_err, dr_err = [], []
+    for e in fresh:
+        p60 = next(p for p in e.values["predicted"] if p["dt"] == 60.0)
+        tr = truth_at(voyage.truth, e.t + 60.0)
+        n, ea = plane.to_ne(p60["lat"], p60["lon"])
+        model_err.append(math.hypot(n - tr[1], ea - tr[2]))
+        # straight-line dead reckoning from the estimate's own SOG/COG
+        n0, e0 = plane.to_ne(e.values["lat"], e.values["lon"])
+        sog, cog = e.values["sog"], e.values["cog"]
+        dr_err.append(math.hypot(n0 + 60 * sog * math.cos(cog) - tr[1], e0 + 60 * sog * math.sin(cog) - tr[2]))
+        majors = [p["std_major"] for p in e.values["predicted"]]
+        assert majors == sorted(majors)
+    assert np.sqrt(np.mean(np.square(model_err))) < 0.2 * np.sqrt(np.mean(np.square(dr_err)))
+
+
+def test_ellipse_axes_and_angle():
+    major, minor, angle = ellipse(np.array([[1.0, 0.0], [0.0, 4.0]]))  # long east-west
+    assert (major, minor) == pytest.approx((2.0, 1.0)) and angle == pytest.approx(math.pi / 2)
+    major, minor, angle = ellipse(np.array([[2.0, 1.0], [1.0, 2.0]]))  # along 045°
+    assert major == pytest.approx(math.sqrt(3.0)) and angle == pytest.approx(math.pi / 4)
+
+
+def test_bad_inputs_are_counted_not_used():
+    core = _core()
+    ms = list(_voyage(duration=30.0).measurements())
+    run(core, ms)
+    core.step(Measurement("position", "gnss", ms[-1].t + 0.1, {"lat": float("nan"), "lon": 11.5}))
+    core.step(Measurement("position", "gnss", ms[-1].t + 0.1, {"lat": 57.6, "lon": 11.5, "fix_quality": 0}))
+    core.step(Measurement("heading", "gyro", ms[-1].t - 5.0, {"heading": 0.1}))
+    h = core.health()
+    assert h["rejected"]["position.no_fix"] == 2 and h["rejected"]["heading.late"] == 1
+
+
+@pytest.mark.parametrize("filt", ["ukf", "enkf"])
+def test_the_heavier_filters_run_in_a_process_of_their_own_by_default(filt):
+    assert ManoeuvreConfig(type="manoeuvre", filter=filt).worker == "process"
+    assert ManoeuvreConfig(type="manoeuvre", filter=filt, worker="loop").worker == "loop"
+    assert ManoeuvreConfig(type="manoeuvre").worker == "loop"
+
+
+def test_config_errors_name_the_key():
+    with pytest.raises(ValidationError, match="horizons"):
+        ManoeuvreConfig(type="manoeuvre", horizons=[10.0, -5.0])
+    with pytest.raises(ValidationError, match="filter"):
+        ManoeuvreConfig(type="manoeuvre", filter="pf")
+    with pytest.raises(ValidationError, match="members"):
+        ManoeuvreConfig(type="manoeuvre", filter="enkf", members=1)
