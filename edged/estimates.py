@@ -167,8 +167,8 @@ ESTIMATE_KINDS: dict[str, EstimateKind] = {
             (
                 _f("lat", "deg", "latitude (WGS-84)"),
                 _f("lon", "deg", "longitude (WGS-84)"),
-                _f("x", "m", "north in the local tangent plane", std="std.x", truth="x"),
-                _f("y", "m", "east in the local tangent plane", std="std.y", truth="y"),
+                _f("x", "m", "north in the estimator's own tangent plane (scored through lat, lon)", std="std.x"),
+                _f("y", "m", "east in the estimator's own tangent plane (scored through lat, lon)", std="std.y"),
                 _f("u", "m/s", "surge speed (body x)", std="std.u", truth="u"),
                 _f("v", "m/s", "sway speed (body y, + starboard)", std="std.v", truth="v"),
                 _f("r", "rad/s", "yaw rate, + to starboard", std="std.r", truth="r", baseline=("yaw_rate", "r")),

@@ -23,4 +23,5 @@ class ManoeuvreEstimator(EstimatorPlugin):
 
     def status(self) -> dict[str, Any]:
         c = self.config
-        return {"mode": c.mode, "model": c.model, "filter": c.filter}
+        # not "filter": the worker host puts the core's own health() there
+        return {"mode": c.mode, "model": c.model, "kalman": c.filter}
