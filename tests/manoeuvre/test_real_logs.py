@@ -50,15 +50,27 @@ NOT_A_VESSEL = {"rst39"}
 YAW_Q_REASON = (
     "estimator: the yaw process noise (q_yaw_accel 1e-8 rad^2/s^3, i.e. 1e-4 rad/s^2 of "
     "yaw acceleration in a second; its NIS adaptation caps at x100) is a ship's; a small "
-    "craft yawing at 0.01-0.05 rad/s^2 without a rate sensor gets its headings gated in "
-    "runs. q_yaw_accel = 1e-4 removes the gates on dirona/susteranna2020 and 90 % of aava's"
+    "craft yawing at 0.01-0.05 rad/s^2 gets its headings gated in runs. With "
+    "q_yaw_accel = 1e-4: bundg 0 gated (mean NIS 0.76), susteranna2020 0 (1.04), aava 35 "
+    "of 591 (2.96)"
+)
+#: Dirona's heading and rate (src 7) come in bursts: ~8 readings within 2 ms every
+#: ~0.22 s. The decimator (max_rate = 10 Hz) takes the source for an 80 Hz one and
+#: divides R by the 8 samples of a block, though they are one reading.
+BURST_REASON = (
+    "estimator: the decimator (max_rate 10 Hz) averages dirona's bursts (8 readings of "
+    "src 7 within 2 ms, every 0.22 s) as 8 independent samples (R/8): the heading is "
+    "trusted 8x too much and gated in runs (51 of 467, 9 releases each raising the yaw "
+    "process noise x10); 78 % of the filtered r's squared first differences fall within "
+    "2 s of a gated heading. With max_rate = 0: no heading gated, filtered/raw roughness 0.96"
 )
 HEADING_NIS_XFAIL = {
     "aava": "369 of 591 headings gated, mean NIS 16.6: " + YAW_Q_REASON,
-    "bundg_zeus_9": "26 % of headings gated, mean NIS 6.6: " + YAW_Q_REASON,
-    "dirona": "12 % of headings gated at the mooring (NIS 15-47 in runs): " + YAW_Q_REASON,
-    "susteranna2020": "11.5 % of headings gated, 25 % above the band: " + YAW_Q_REASON,
+    "bundg_zeus_9": "22 % of headings gated, mean NIS 5.5: " + YAW_Q_REASON,
+    "susteranna2020": "11.5 % of headings gated, 27 % above the band: " + YAW_Q_REASON,
+    "dirona": "11 % of headings gated at the mooring (NIS 15-47 in runs): " + BURST_REASON,
 }
+YAW_XFAIL = {"dirona": "filtered r 1.13x rougher than the raw rate: " + BURST_REASON}
 
 
 def _need(name: str) -> None:
@@ -195,7 +207,7 @@ def test_nis_is_not_absurd(name, kind):
 WITH_ROT = ["furuno", "dirona", "susteranna", "susteranna2020", "can0-1", "merrimac-ydwg", "saab-r4"]
 
 
-@pytest.mark.parametrize("name", WITH_ROT)
+@pytest.mark.parametrize("name", _param(WITH_ROT, YAW_XFAIL))
 def test_filtered_yaw_rate_is_no_noisier_than_the_raw(name):
     r = _run(name)
     y = r.yaw_noise()

@@ -166,8 +166,9 @@ def dedupe_fixes(ms: list[Measurement]) -> tuple[list[Measurement], int]:
 
 
 def spread_same_time(ms: list[Measurement]) -> tuple[list[Measurement], int]:
-    """Records of one stream (kind, source) that share a time stamp, spread evenly
-    over the interval to the stream's next stamp (at most 1.5 s; else the one before).
+    """Records of a stream (kind, source) stamped in whole seconds that share a time
+    stamp, spread evenly over the interval to the stream's next stamp (at most 1.5 s;
+    else the one before). Streams stamped finer (CAN logs: ms) are left alone.
 
     NMEA 0183 text without per-line times gives every sentence the time of the last
     GGA/RMC/ZDA: Zeus2's ten SDHDG a second all arrive at one instant, ten different
@@ -182,6 +183,9 @@ def spread_same_time(ms: list[Measurement]) -> tuple[list[Measurement], int]:
         if kind == "position":  # one fix a time stamp already (dedupe_fixes)
             continue
         times = [ms[i].t for i in idx]
+        distinct = set(times)
+        if sum(t == math.floor(t) for t in distinct) < 0.9 * len(distinct):
+            continue  # a stream stamped finer than the second (a CAN log's ms bursts)
         j = 0
         prev_span = 1.0
         while j < len(idx):
@@ -219,7 +223,15 @@ class Run:
 
     # ------------------------------------------------------------ figures
     def duration(self) -> float:
-        return self.fed[-1].t - self.fed[0].t if self.fed else 0.0
+        """Seconds of data: the intervals between fed records, gaps > GAP left out (the
+        can0-1 capture's 0.43 s stamped 13.9 days early is not 13.9 days of data)."""
+        t = np.array([m.t for m in self.fed])
+        d = np.diff(t)
+        return float(d[(d >= 0) & (d <= GAP)].sum()) if len(t) > 1 else 0.0
+
+    def gaps(self) -> int:
+        t = np.array([m.t for m in self.fed])
+        return int((np.diff(t) > GAP).sum()) if len(t) > 1 else 0
 
     def counts(self) -> Counter[tuple[str, str]]:
         return Counter((m.kind, m.source.rsplit(".", 1)[-1]) for m in self.all_ms if m.kind in KINDS)
