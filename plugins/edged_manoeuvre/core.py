@@ -387,8 +387,7 @@ class ManoeuvreCore:
             "std": std_map,
             "predicted": self._predicted(t, x, P),
         }
-        if m.bias:
-            values["accel_bias"] = [float(x[8]), float(x[9])]
+        values["accel_bias"] = [float(x[8]), float(x[9])] if m.bias else None
         return [Estimate("manoeuvre", "manoeuvre", t, values)]
 
     def _predicted(self, t: float, x: np.ndarray, P: np.ndarray) -> list[dict[str, float]]:
