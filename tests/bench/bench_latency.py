@@ -10,10 +10,15 @@ time at the moment it is published; the subscriber (same machine) takes `time.ti
 at receipt. Whole path: router queue, output task, JSON, zenoh put, TCP loopback, the
 subscriber's zenoh thread.
 
-Run twice: with the zenoh output's rate limit lifted (`meas_default_hz` infinite: every
+Run twice: with the zenoh output's rate limit lifted (`meas_default_hz` 1e6: every
 measurement published; the six draft marks share one topic, `meas/draft/can0.DraftMark`,
 and arrive microseconds apart, so any finite limit would thin them), and with the
 default limit (10 Hz per measurement topic).
+
+With `--manoeuvre FILTER:WORKER[,...]` (e.g. `ukf:loop,ukf:process,enkf:loop`) it also
+runs the default-limit case with a manoeuvre estimator of that filter in that worker
+placement beside the inputs: a filter in the event loop delays the inputs' path by
+its updates, one in a process of its own does not.
 
 The script runs itself with `--subscriber` as the receiving process.
 """
@@ -108,7 +113,7 @@ def _pct(xs: list[float], p: float) -> float:
     return xs[min(len(xs) - 1, int(p / 100.0 * len(xs)))]
 
 
-async def run_once(seconds: float, meas_hz: float | None) -> tuple[int, list[float]]:
+async def run_once(seconds: float, meas_hz: float | None, estimators: dict | None = None) -> tuple[int, list[float]]:
     from edged.clock import LiveClock
     from edged.config import parse_config
     from edged.registry import Registry
@@ -122,7 +127,7 @@ async def run_once(seconds: float, meas_hz: float | None) -> tuple[int, list[flo
         out_cfg = {"type": "zenoh", "listen": [f"tcp/127.0.0.1:{own}"], "connect": [f"tcp/127.0.0.1:{peer}"]}
         if meas_hz is not None:
             out_cfg["meas_default_hz"] = meas_hz
-        cfg = parse_config({"edged": {"vessel_id": VESSEL}, "estimators": {}, "outputs": {"zenoh": out_cfg}},
+        cfg = parse_config({"edged": {"vessel_id": VESSEL}, "estimators": estimators or {}, "outputs": {"zenoh": out_cfg}},
                            registry, file="<bench>")
         clock = LiveClock()
         rt = Runtime(cfg, registry, clock)
@@ -167,13 +172,19 @@ def main() -> int:
     ap.add_argument("--subscriber", action="store_true")
     ap.add_argument("--listen")
     ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--manoeuvre", default="", help="FILTER:WORKER[,...] also with a manoeuvre estimator")
     a = ap.parse_args()
     if a.subscriber:
         return subscriber(a.listen)
-    for label, hz in (("every measurement (meas_default_hz inf)", float("inf")),
+    for label, hz in (("every measurement (meas_default_hz 1e6)", 1e6),
                       ("default limit (10 Hz per topic)", None)):
         sent, lat = asyncio.run(run_once(a.seconds, hz))
         report(label, a.seconds, sent, lat)
+    for spec in filter(None, a.manoeuvre.split(",")):
+        filt, worker = spec.split(":")
+        est = {"manoeuvre": {"type": "manoeuvre", "filter": filt, "worker": worker}}
+        sent, lat = asyncio.run(run_once(a.seconds, None, est))
+        report(f"default limit, manoeuvre {filt} in the {worker}", a.seconds, sent, lat)
     return 0
 
 
