@@ -85,6 +85,8 @@ DR_SOURCE = "nmea"
 STATES = ("u", "v", "r", "heading", "a_u", "a_v", "pos")
 UNITS = {"u": "m/s", "v": "m/s", "r": "°/s", "heading": "°", "a_u": "m/s²", "a_v": "m/s²", "pos": "m"}
 AC_KINDS = (("position", 2), ("heading", 1))
+#: The kinds of update in `core.trace`, for the NIS per kind.
+NIS_KINDS = ("position", "heading", "yaw_rate", "accel")
 ROT = "-rot180"  # suffix of the rotated zigzag's key
 
 #: Seed 002, Tables 4 and 5 (S1..S6), for reference.
@@ -208,6 +210,7 @@ def run_one(task: dict) -> dict:
     nis = np.zeros(K)
     dof = np.zeros(K)
     white = {k: np.full((K, dim), np.nan) for k, dim in AC_KINDS}
+    kind_nis = np.zeros((K, len(NIS_KINDS), 2))  # ΣNIS, Σdof per kind
     bad_nis = 0
     for t, kind, n_, d_, _applied, w in core.trace:
         k = int(math.floor((t - t0) * 10.0 + 1e-4))
@@ -218,6 +221,8 @@ def run_one(task: dict) -> dict:
             continue
         nis[k] += n_
         dof[k] += d_
+        if kind in NIS_KINDS:
+            kind_nis[k, NIS_KINDS.index(kind)] += (n_, d_)
         if kind in white and w.shape == (white[kind].shape[1],):
             white[kind][k] = w
 
@@ -296,7 +301,7 @@ def run_one(task: dict) -> dict:
     h = core.health()
     return {
         "key": task["key"], "combo": task["combo"], "seed": seed, "t0": t0, "K": K,
-        "nis": nis, "dof": dof, "white": white, "err": err, "pred": pred, "raw": raw_sq,
+        "nis": nis, "dof": dof, "kind_nis": kind_nis, "white": white, "err": err, "pred": pred, "raw": raw_sq,
         "divergences": int(core.divergences), "cpu": cpu, "updates": len(core.trace), "fed": n_fed,
         "nan_est": nan_est, "bad_nis": bad_nis, "estimates": len(out),
         "events": dict(h.get("events", {})), "rejected": dict(h.get("rejected", {})),
@@ -312,6 +317,7 @@ class Acc:
         self.n = 0
         self.nis = np.zeros(K)
         self.dof = np.zeros(K)
+        self.kind_nis = np.zeros((K, len(NIS_KINDS), 2))
         self.ac = {k: [np.zeros(K - 1) for _ in range(4)] for k, _ in AC_KINDS}  # num, den1², den2², runs
         self.sq = np.zeros((K, len(STATES)))
         self.cnt = np.zeros((K, len(STATES)))
@@ -331,6 +337,7 @@ class Acc:
         self.n += 1
         self.nis += r["nis"]
         self.dof += r["dof"]
+        self.kind_nis += r["kind_nis"]
         for k, _ in AC_KINDS:
             w = r["white"][k]
             a, b = w[:-1], w[1:]
@@ -431,7 +438,7 @@ def print_tables(key: str, combo: str, acc: Acc, segs: list, warmup: float, pape
     names = [s[0] for s in segs] + ["all"]
     masks = [steps_in(a, b, K, warmup) for _, a, b in segs] + [steps_in(0.0, 1e12, K, warmup)]
     w = 7
-    print("(a) average NIS in its χ² 95 % band, % of steps (below / above)")
+    print("(a) average NIS in its χ² 95 % band, % of steps (below / above); ΣNIS/Σdof per kind over the segment")
     print("(b) average autocorrelation k,k+1 in ±1.96/√N, % of steps (eq. 26)")
     print(f"{'':22s}" + "".join(f"{n:>{w}s}" for n in names))
     inside = lambda m: pct(np.where(np.isfinite(state[m]), state[m] == 0, np.nan))  # noqa: E731
@@ -443,6 +450,12 @@ def print_tables(key: str, combo: str, acc: Acc, segs: list, warmup: float, pape
     ref = PAPER.get(combo) if paper else None
     if ref:
         print(f"{'  paper Table 4':22s}" + "".join(f"{v:>{w}d}" for v in ref[0]))
+    for i, kind in enumerate(NIS_KINDS):
+        vals = []
+        for m in masks:
+            n_, d_ = acc.kind_nis[m, i, 0].sum(), acc.kind_nis[m, i, 1].sum()
+            vals.append(f"{n_ / d_:.2f}" if d_ > 0 else "-")
+        print(f"{'  NIS/dof ' + kind:22s}" + "".join(f"{v:>{w}s}" for v in vals))
     print(f"{'AC position':22s}" + "".join(f"{pct(ac_p[m]):>{w}s}" for m in masks))
     print(f"{'AC position·√d':22s}" + "".join(f"{pct(ac_ps[m]):>{w}s}" for m in masks))
     print(f"{'AC heading':22s}" + "".join(f"{pct(ac_h[m]):>{w}s}" for m in masks))
