@@ -7,15 +7,11 @@ innovations also tell how noisy each sensor really is; `NoiseEstimate` follows t
 slowly, so that one default configuration suits a 1 m and a 3 m GNSS alike. Outliers
 (a GNSS jump, a gyro glitch) are neither: `Gate` keeps them out.
 
-QScale: over the last `window` seconds of updates (all sensors pooled), the summed
-NIS is compared with the χ² 95 % band of the summed degrees of freedom. Above it,
-the process noise of the manoeuvring states grows at the rate of the excess,
-
-    s ← s · (ΣNIS / Σdof)^(Δt / τ_up),   at most `max_scale`;
-
-inside or below it, s relaxes to 1 with time constant τ_down. The NIS a filter
-reports is that of the Q it ran with, so s stops growing once the filter is
-consistent again, and returns to 1 when the manoeuvre is over.
+QScale: per group of states, base × boost. The boost reacts within a second when
+the NIS of the last 2 s exceeds its χ² 95 % band (an order), and relaxes to 1 after;
+the base follows the last minute's NIS either way, slowly, to the vessel's own agility.
+The NIS a filter reports is that of the Q it ran with, so each stops moving once the
+filter is consistent again.
 
 NoiseEstimate: per sensor (source and kind), covariance matching on the residuals
 after the update (Mohamed & Schwarz 1999): ε = z − h(x⁺) and H P⁺ Hᵀ satisfy
@@ -51,63 +47,108 @@ def band(dof: int) -> tuple[float, float]:
     return dof * (1.0 - k - _Z975 * math.sqrt(k)) ** 3, dof * (1.0 - k + _Z975 * math.sqrt(k)) ** 3
 
 
+class _Window:
+    """ΣNIS and Σdof of the updates of the last `span` seconds, and of at least
+    `min_dof` degrees of freedom (a 1 Hz heading alone: its last four)."""
+
+    __slots__ = ("span", "min_dof", "q", "nis", "dof")
+
+    def __init__(self, span: float, min_dof: int) -> None:
+        self.span = span
+        self.min_dof = min_dof
+        self.q: deque[tuple[float, float, int]] = deque()
+        self.nis = 0.0
+        self.dof = 0
+
+    def add(self, t: float, nis: float, dof: int) -> None:
+        q = self.q
+        q.append((t, nis, dof))
+        self.nis += nis
+        self.dof += dof
+        while q and q[0][0] < t - self.span and self.dof - q[0][2] >= self.min_dof:
+            _, n0, d0 = q.popleft()
+            self.nis -= n0
+            self.dof -= d0
+
+    def clear(self) -> None:
+        self.q.clear()
+        self.nis = 0.0
+        self.dof = 0
+
+
 class QScale:
-    def __init__(self, window: float = 2.0, tau_up: float = 1.0, tau_down: float = 10.0,
-                 max_scale: float = 100.0) -> None:
-        self.window = window
-        self.tau_up = tau_up
-        self.tau_down = tau_down
-        self.max_scale = max_scale
-        self.scale = 1.0
-        self._q: deque[tuple[float, float, int]] = deque()
-        self._sum_nis = 0.0
-        self._sum_dof = 0
+    """The process-noise scale of one group of states: `base × boost`.
+
+    boost (≥ 1, fast): over the last `window` seconds, ΣNIS above the χ² 95 % band of
+    Σdof makes it grow as boost ← boost · (ΣNIS/Σdof)^(Δt/τ_up) (at most `max_boost`);
+    otherwise it relaxes to 1 with τ_down. A rudder or engine order, caught in a second.
+    base (slow, either way): over the last `long_window` seconds, ΣNIS outside its band
+    moves base by (ΣNIS/Σdof)^(Δt/τ_base), within [min_base, max_base], while boost
+    is at rest; and upward at the short window's rate while boost is at its maximum.
+    The vessel's own agility: a 10 m launch yaws a hundred times harder than a
+    tanker, and the configured noise is right for neither.
+    """
+
+    def __init__(self, window: float = 2.0, tau_up: float = 1.0, tau_down: float = 10.0, max_boost: float = 100.0,
+                 long_window: float = 60.0, tau_base: float = 30.0, min_base: float = 1e-3,
+                 max_base: float = 1e4) -> None:
+        self.tau_up, self.tau_down, self.max_boost = tau_up, tau_down, max_boost
+        self.tau_base, self.min_base, self.max_base = tau_base, min_base, max_base
+        self._short = _Window(window, 4)
+        self._long = _Window(long_window, 100)
+        self.base = 1.0
+        self.boost = 1.0
         self._t: float | None = None
-        #: ΣNIS/Σdof over the window and whether it lies in the band (for health/output).
+        #: ΣNIS/Σdof over the short window and whether it lies in the band.
         self.ratio = 1.0
         self.in_band = True
-        self.raised_s = 0.0
+
+    @property
+    def scale(self) -> float:
+        return self.base * self.boost
 
     def add(self, t: float, nis: float, dof: int) -> None:
         if not math.isfinite(nis):
             return
-        q = self._q
-        q.append((t, nis, dof))
-        self._sum_nis += nis
-        self._sum_dof += dof
-        while q and q[0][0] < t - self.window:
-            _, n0, d0 = q.popleft()
-            self._sum_nis -= n0
-            self._sum_dof -= d0
+        self._short.add(t, nis, dof)
+        self._long.add(t, nis, dof)
         dt = 0.0 if self._t is None else max(0.0, t - self._t)
         self._t = t
-        if self._sum_dof < 4:
+        w = self._short
+        if w.dof < 4:
             return
-        lo, hi = band(self._sum_dof)
-        total = max(self._sum_nis, 0.0)
-        self.ratio = total / self._sum_dof
+        lo, hi = band(w.dof)
+        total = max(w.nis, 0.0)
+        self.ratio = total / w.dof
         self.in_band = lo <= total <= hi
         if total > hi:
-            self.scale = min(self.max_scale, self.scale * self.ratio ** (dt / self.tau_up))
-            self.raised_s += dt
-        elif self.scale > 1.0:
-            self.scale = 1.0 + (self.scale - 1.0) * math.exp(-dt / self.tau_down)
-            if self.scale < 1.0 + 1e-3:
-                self.scale = 1.0
+            self.boost = min(self.max_boost, self.boost * self.ratio ** (dt / self.tau_up))
+            if self.boost >= self.max_boost:  # the fast factor cannot hold it: the level moves
+                self.base = min(self.max_base, self.base * self.ratio ** (dt / self.tau_base))
+        elif self.boost > 1.0:
+            self.boost = 1.0 + (self.boost - 1.0) * math.exp(-dt / self.tau_down)
+            if self.boost < 1.0 + 1e-3:
+                self.boost = 1.0
+        if self.boost > 1.05 or self._long.dof < 100 or self._long.q[-1][0] - self._long.q[0][0] < 0.5 * self._long.span:
+            return
+        lo, hi = band(self._long.dof)
+        total = max(self._long.nis, 1e-9)
+        if not lo <= total <= hi:
+            self.base = min(self.max_base, max(self.min_base,
+                                               self.base * (total / self._long.dof) ** (dt / self.tau_base)))
 
     def bump(self, factor: float) -> None:
         """A sensor kept out by its gate too long: the model, not the sensor, is wrong."""
-        self.scale = min(self.max_scale, self.scale * factor)
+        self.boost = min(self.max_boost, self.boost * factor)
 
     @property
     def raised(self) -> bool:
-        return self.scale > 1.5
+        return self.boost > 1.5
 
     def reset(self) -> None:
-        self.scale = 1.0
-        self._q.clear()
-        self._sum_nis = 0.0
-        self._sum_dof = 0
+        self.boost = 1.0
+        self._short.clear()
+        self._long.clear()
         self._t = None
         self.ratio, self.in_band = 1.0, True
 

@@ -44,6 +44,9 @@ from .predict import Predictor
 RCOND_MIN = 1e-10
 #: A heading or yaw rate older than this does not start the filter.
 START_AGE = 1.0
+#: The starting line is fitted to fixes of at most this many seconds (a 1 Hz GNSS:
+#: its last three within it).
+START_SPAN = 10.0
 #: 1-σ of the starting accelerations (m/s²) and biases (m/s²), and of the yaw rate
 #: when no rate sensor has spoken (rad/s).
 START_ACCEL_SIGMA = 0.1
@@ -175,7 +178,7 @@ class ManoeuvreCore:
         cfg = self.cfg
         fixes = self._fixes
         window = float(cfg.init_window)
-        while len(fixes) > 2 and fixes[0][0] < t - max(window, 0.0) - 1.0:
+        while len(fixes) > 3 and fixes[0][0] < t - max(window, START_SPAN):
             fixes.popleft()
         hd = self._heading
         if hd is None or t - hd[0] > START_AGE:
@@ -191,8 +194,16 @@ class ManoeuvreCore:
             cov_pv = var_p / dt
             pos = (n1, e1)
         else:
-            pts = [f for f in fixes if f[0] >= t - window]
-            if len(pts) < 3 or pts[-1][0] - pts[0][0] < 0.5 * window:
+            # the fixes of the last `init_window` s, or the last three when the GNSS is
+            # slower than that (1 Hz: three seconds), within START_SPAN
+            recent = [f for f in fixes if f[0] >= t - START_SPAN]
+            if len(recent) < 3:
+                return
+            since = min(t - window, recent[-3][0])
+            pts = [f for f in recent if f[0] >= since]
+            span = pts[-1][0] - pts[0][0]
+            slow = recent[-1][0] - recent[-3][0] >= window  # three fixes take the window or more
+            if span <= 0.0 or (span < 0.5 * window and not slow):
                 return
             ts = np.array([p[0] for p in pts]) - t
             tm = ts.mean()
@@ -274,8 +285,11 @@ class ManoeuvreCore:
         cfg = self.cfg
         key = (kind, source)
         noise = self.noise.get(key)
-        if noise is None:  # an average of `samples` readings: that much less variance
-            noise = self.noise[key] = NoiseEstimate(self.sigma0[kind] ** 2 / samples, SIGMA_FLOOR[kind])
+        if noise is None:
+            # An average of n readings has 1/n of one's variance only if they are
+            # independent (a gateway's bursts of repeated readings are not): start from
+            # one reading's and let the residuals bring it down.
+            noise = self.noise[key] = NoiseEstimate(self.sigma0[kind] ** 2, SIGMA_FLOOR[kind])
         gate = self.gates.get(key)
         if gate is None:
             gate = self.gates[key] = Gate()
@@ -284,7 +298,8 @@ class ManoeuvreCore:
             self.t = t
         dof = KINDS[kind].dim
         R_ = noise.R()
-        inn = f.update(kind, z, R_, gate.limit(dof) if cfg.gate else None)
+        limit = gate.limit(dof) if cfg.gate else None
+        inn = f.update(kind, z, R_, limit)
         self._nis, self._rcond = inn.nis, inn.rcond
         if self.trace is not None:
             self.trace.append((t, kind, inn.nis, dof, inn.applied, _whiten(inn.y, inn.S)))
@@ -298,6 +313,10 @@ class ManoeuvreCore:
         if not inn.applied:
             self.monitor.gated(kind)
             self.rejected[f"{kind}.gate"] += 1
+            if cfg.adapt_q and limit is not None:
+                # a gated measurement still says the model is off: counted, at most at
+                # twice the gate, so that one outlier cannot move Q much
+                self.qscales[self._group_of[kind]].add(t, min(inn.nis, 2.0 * limit), dof)
             gate.result(False)
             if kind == "position" and gate.in_row >= gate.run:
                 self._position_jump(z, R_)
@@ -309,7 +328,7 @@ class ManoeuvreCore:
         self.monitor.update(kind, inn.nis, dof)
         if cfg.adapt_q:
             self.qscales[self._group_of[kind]].add(t, inn.nis, dof)
-        if cfg.adapt_r and not self.q_raised:
+        if cfg.adapt_r and not self.qscales[self._group_of[kind]].raised:
             noise.add(inn.y, inn.S, R_)
 
     def _position_jump(self, z: np.ndarray, R_: np.ndarray) -> None:
