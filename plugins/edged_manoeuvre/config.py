@@ -33,7 +33,7 @@ DEFAULTS = {
     "tuned": {
         "substep": 0.05, "position_sigma": 1.5, "heading_sigma_deg": 0.2, "yaw_rate_sigma_deg": 0.05,
         "accel_sigma": 0.03, "q_position": 1e-4, "q_velocity": 1e-6, "q_heading": 1e-8,
-        "q_yaw_accel": 1e-8, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
+        "q_yaw_accel": 1e-7, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
         "gate": True, "imu_bias": True, "init_window": 1.0, "max_rate": 10.0,
     },
     "paper": {

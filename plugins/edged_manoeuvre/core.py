@@ -37,13 +37,16 @@ from .cmm import Cmm
 from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
 from .ctra import Ctra
-from .model import KINDS, PSI, R, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, R, residual, rk4, wrap_2pi, wrap_pi
 from .predict import Predictor
+from .sources import SourceCopies
 
 #: rcond(S) below this is a diverged filter (seed 002 §4.2).
 RCOND_MIN = 1e-10
 #: A heading or yaw rate older than this does not start the filter.
 START_AGE = 1.0
+#: The same lat, lon from one source within this many seconds is one fix told again.
+REPEAT_WINDOW = 0.9
 #: The starting line is fitted to fixes of at most this many seconds (a 1 Hz GNSS:
 #: its last three within it).
 START_SPAN = 10.0
@@ -105,11 +108,14 @@ class ManoeuvreCore:
         self.monitor = InnovationMonitor(window=200)
         self.predictor = Predictor(self.model, tuple(cfg.horizons), cfg.accel_decay)
         self.decimator = Decimator(float(cfg.max_rate))
+        self.copies = SourceCopies()
+        self.muted: Counter[str] = Counter()
         self.seen: Counter[str] = Counter()
         self.rejected: Counter[str] = Counter()
         self.resets: Counter[str] = Counter()
         self.divergences = 0
         self._fixes: deque[tuple[float, float, float]] = deque()
+        self._last_fix: dict[str, tuple[float, Any, Any, float | None]] = {}
         self._heading: tuple[float, float] | None = None
         self._rate: tuple[float, float] | None = None
         self._current: tuple[float, float, float] | None = None  # t, v_n, v_e of the water
@@ -132,7 +138,7 @@ class ManoeuvreCore:
         t = rec.t
         self.seen[kind] += 1
         if kind == "position":
-            self._on_position(t, v, rec.source)
+            self._on_position(t, v, rec.source, rec.t_src)
         elif kind == "heading":
             psi = v.get("heading")
             if _finite(psi):
@@ -158,11 +164,20 @@ class ManoeuvreCore:
         if _finite(c, set_):
             self._current = (e.t, float(c) * math.cos(set_), float(c) * math.sin(set_))
 
-    def _on_position(self, t: float, v: dict[str, Any], source: str) -> None:
+    def _on_position(self, t: float, v: dict[str, Any], source: str, t_src: float | None = None) -> None:
         lat, lon = v.get("lat"), v.get("lon")
         if not _finite(lat, lon) or v.get("fix_quality") == 0:
             self.rejected["position.no_fix"] += 1
             return
+        last = self._last_fix.get(source)
+        if last is not None and 0.0 <= t - last[0] < REPEAT_WINDOW and (
+                t == last[0] or (last[1] == lat and last[2] == lon) or (t_src is not None and t_src == last[3])):
+            # one fix told again: GGA, RMC and GLL of one receiver (one time, the
+            # position perhaps rounded otherwise), or PGN 129029 repeating 129025's;
+            # a second update would count it twice
+            self.rejected["position.repeat"] += 1
+            return
+        self._last_fix[source] = (t, lat, lon, t_src)
         if self.plane is None:
             self.plane = LocalPlane(float(lat), float(lon))
         pn, pe = self.plane.to_ne(float(lat), float(lon))
@@ -270,7 +285,15 @@ class ManoeuvreCore:
     def q_raised(self) -> bool:
         return any(q.raised for q in self.qscales.values())
 
+    def _sigma(self, kind: str, source: str) -> np.ndarray:
+        noise = self.noise.get((kind, source))
+        return np.sqrt(noise.var) if noise is not None else self.sigma0[kind]
+
     def _measure(self, kind: str, t: float, z: np.ndarray, source: str) -> None:
+        k = KINDS[kind]
+        if self.copies.muted(kind, source, t, z, lambda a, b: residual(k, a, b), lambda s: self._sigma(kind, s)):
+            self.muted[kind] += 1
+            return
         f = self.filter
         if f is None or self.t is None:
             return
@@ -432,6 +455,8 @@ class ManoeuvreCore:
         out["divergences"] = self.divergences
         out["rejected"] = dict(sorted(self.rejected.items()))
         out["events"] = dict(sorted(self.resets.items()))
+        out["duplicates"] = self.copies.duplicates()
+        out["muted"] = dict(sorted(self.muted.items()))
         out["q_scale"] = {g: round(q.scale, 3) for g, q in self.qscales.items()}
         out["nis_ratio"] = {g: round(q.ratio, 3) for g, q in self.qscales.items()}
         out["nis_in_band"] = {g: q.in_band for g, q in self.qscales.items()}

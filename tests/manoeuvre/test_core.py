@@ -245,3 +245,46 @@ def test_config_errors_name_the_key():
         ManoeuvreConfig(type="manoeuvre", filter="pf")
     with pytest.raises(ValidationError, match="members"):
         ManoeuvreConfig(type="manoeuvre", filter="enkf", members=1)
+
+
+def test_one_fix_told_three_times_is_one_update():
+    """GGA, RMC and GLL of one receiver carry the same fix: counted as repeats."""
+    core = _core()
+    ms = []
+    for m in _voyage(duration=30.0).measurements():
+        ms.append(m)
+        if m.kind == "position":
+            ms += [Measurement("position", m.source, m.t, dict(m.values))] * 2
+    run(core, ms)
+    h = core.health()
+    assert h["rejected"]["position.repeat"] == 2 * 301
+    assert h["innovation"]["position"]["updates"] < 301
+
+
+def test_one_gyro_heard_twice_is_used_once_and_two_receivers_both():
+    """HDT and PGN 127250 of one gyro (the same readings, rounded otherwise) are one
+    sensor: the copy is muted, and takes over when the first falls silent. Two GNSS
+    receivers with their own noise are both used."""
+    voyage = _voyage(duration=60.0)
+    rng = np.random.default_rng(9)
+    plane = LocalPlane(57.6, 11.5)
+    ms = []
+    for m in voyage.measurements():
+        ms.append(m)
+        if m.kind == "heading" and m.t - T0 < 40.0:  # the copy, rounded to 0.01°
+            h = math.radians(round(math.degrees(m.values["heading"]), 2))
+            ms.append(Measurement("heading", "n2k.18", m.t + 0.002, {"heading": h}))
+        if m.kind == "heading" and m.t - T0 >= 40.0:  # the first falls silent
+            ms[-1] = Measurement("heading", "n2k.18", m.t, dict(m.values))
+        if m.kind == "position":  # a second receiver, its own noise
+            n, e = plane.to_ne(m.values["lat"], m.values["lon"])
+            lat, lon = plane.to_geodetic(n + rng.normal(0, 1.5), e + rng.normal(0, 1.5))
+            ms.append(Measurement("position", "gnss2", m.t + 0.003, {"lat": lat, "lon": lon}))
+    core = _core()
+    run(core, ms)
+    h = core.health()
+    assert h["duplicates"] == ["heading: gyro = n2k.18"]
+    assert 300 < h["muted"]["heading"] <= 400  # the copy while the first spoke (40 s at 10 Hz)
+    assert "position" not in h["muted"]
+    assert h["innovation"]["heading"]["updates"] > 550  # the copy took over after 40 s
+    assert "heading/n2k.18" in h["sensor_sigma"] and "position/gnss2" in h["sensor_sigma"]

@@ -40,9 +40,11 @@ def test_williamson_turn_scores_within_the_targets(scored):
     assert rows["u"]["rmse"] < 0.02 and rows["v"]["rmse"] < 0.02, (rows["u"]["rmse"], rows["v"]["rmse"])
     assert rows["heading"]["rmse"] < math.radians(0.05)
     assert rows["position"]["rmse"] < 1.0  # metres, from a 1.5 m GNSS
-    # the yaw rate no noisier than the best rate gyro on board (the IMU's 0.005°/s)
-    gyros = [r["rmse"] for k, r in rows.items() if k.startswith("r vs ")]
-    assert gyros and rows["r"]["rmse"] <= 1.05 * min(gyros), (rows["r"]["rmse"], gyros)
+    # the yaw rate better than the rate-of-turn sensor (0.02°/s) and within 10 % of the
+    # IMU's fibre-optic rate (0.005°/s) although it also follows the yaw accelerations
+    # of the turns, which a constant-turn-rate model meets with a lag
+    gyros = sorted(r["rmse"] for k, r in rows.items() if k.startswith("r vs "))
+    assert len(gyros) >= 2 and rows["r"]["rmse"] <= min(1.1 * gyros[0], 0.5 * gyros[-1]), (rows["r"]["rmse"], gyros)
     # σ honest: most errors inside ±2σ
     for f in ("u", "v", "heading"):
         assert rows[f]["pct_2sigma"] > 85.0, (f, rows[f]["pct_2sigma"])
