@@ -359,8 +359,13 @@ def run(name: str, log_config: bool = True, **overrides: Any) -> Run:
 @functools.lru_cache(maxsize=None)
 def _run(name: str, cfg_items: tuple[tuple[str, Any], ...]) -> Run:
     log = LOGS[name]
-    logging.getLogger("edged").setLevel(logging.CRITICAL)
-    all_ms = measurements([DATA / log.path], date=log.date)
+    quiet = logging.getLogger("edged")
+    saved = quiet.level
+    quiet.setLevel(logging.CRITICAL)  # the logs' own faults, once each: not this test's business
+    try:
+        all_ms = measurements([DATA / log.path], date=log.date)
+    finally:
+        quiet.setLevel(saved)  # other tests read the log records
     fed, dropped = dedupe_fixes(select(all_ms, KINDS))
     fed, spread = spread_same_time(fed)
     core = ManoeuvreCore(ManoeuvreConfig(type="manoeuvre", **dict(cfg_items)))
