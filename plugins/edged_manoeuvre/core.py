@@ -101,7 +101,9 @@ class ManoeuvreCore:
         self.filter: Any = None
         self.t: float | None = None
         self.plane: LocalPlane | None = None
-        self.qscales = {g: QScale() for g in GROUPS}
+        # An ensemble's spread is its covariance: lowering the noise that keeps the
+        # members apart collapses it, so an EnKF's process noise is only ever raised.
+        self.qscales = {g: QScale(min_base=1.0 if cfg.filter == "enkf" else 1e-3) for g in GROUPS}
         self._group_of = {k: g for g, (kinds, _) in GROUPS.items() for k in kinds}
         self.noise: dict[tuple[str, str], NoiseEstimate] = {}
         self.gates: dict[tuple[str, str], Gate] = {}
