@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import BX, BY, PSI, R
+from .model import BX, BY, PSI, R, H_state, h_state
 
 NAMES = ("x", "y", "v_n", "v_e", "heading", "r", "a_t", "a_n", "b_x", "b_y")
 VN, VE, AT, AN = 2, 3, 6, 7
@@ -98,12 +98,9 @@ class Cmm:
 
     # -- measurement model ------------------------------------------------------------
     def h(self, kind: str, x: np.ndarray) -> np.ndarray:
-        if kind == "position":
-            return x[..., 0:2].copy()
-        if kind == "heading":
-            return x[..., PSI : PSI + 1].copy()
-        if kind == "yaw_rate":
-            return x[..., R : R + 1].copy()
+        direct = h_state(kind, x)
+        if direct is not None:
+            return direct
         if kind == "accel":
             an_, ae_ = self._accel_ne(x)
             c, s = np.cos(x[..., PSI]), np.sin(x[..., PSI])
@@ -115,14 +112,11 @@ class Cmm:
 
     def H(self, kind: str, x: np.ndarray) -> np.ndarray:
         n = self.n
-        Hm = np.zeros((2 if kind in ("position", "accel") else 1, n))
-        if kind == "position":
-            Hm[0, 0] = Hm[1, 1] = 1.0
-        elif kind == "heading":
-            Hm[0, PSI] = 1.0
-        elif kind == "yaw_rate":
-            Hm[0, R] = 1.0
-        elif kind == "accel":
+        Hm = H_state(kind, n)
+        if Hm is not None:
+            return Hm
+        Hm = np.zeros((2, n))
+        if kind == "accel":
             c, s = np.cos(x[PSI]), np.sin(x[PSI])
             an_, ae_ = self._accel_ne(x)
             Ja = self._accel_ne_jacobian(x)

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .model import BX, BY, PSI, R
+from .model import BX, BY, PSI, R, H_state, h_state
 
 NAMES = ("x", "y", "u", "v", "heading", "r", "a_u", "a_v", "b_x", "b_y")
 U, V, AU, AV = 2, 3, 6, 7
@@ -72,12 +72,9 @@ class Ctra:
 
     # -- measurement model (Table 2), one sensor's rows ----------------------------------
     def h(self, kind: str, x: np.ndarray) -> np.ndarray:
-        if kind == "position":
-            return x[..., 0:2].copy()
-        if kind == "heading":
-            return x[..., PSI : PSI + 1].copy()
-        if kind == "yaw_rate":
-            return x[..., R : R + 1].copy()
+        direct = h_state(kind, x)
+        if direct is not None:
+            return direct
         if kind == "accel":
             u, v, r = x[..., U], x[..., V], x[..., R]
             ax = x[..., AU] - v * r  # eq. (11)
@@ -89,16 +86,10 @@ class Ctra:
 
     def H(self, kind: str, x: np.ndarray) -> np.ndarray:
         n = self.n
-        if kind == "position":
-            Hm = np.zeros((2, n))
-            Hm[0, 0] = Hm[1, 1] = 1.0
-        elif kind == "heading":
-            Hm = np.zeros((1, n))
-            Hm[0, PSI] = 1.0
-        elif kind == "yaw_rate":
-            Hm = np.zeros((1, n))
-            Hm[0, R] = 1.0
-        elif kind == "accel":
+        Hm = H_state(kind, n)
+        if Hm is not None:
+            return Hm
+        if kind == "accel":
             u, v, r = x[U], x[V], x[R]
             Hm = np.zeros((2, n))
             Hm[0, V], Hm[0, R], Hm[0, AU] = -r, -v, 1.0

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import KINDS, PSI, Innovation, _eye, inv_small, rcond, residual, transition, wrap_2pi
+from .model import KINDS, PSI, Innovation, _eye, inv_small, judge, reset_position, residual, transition, wrap_2pi
 
 
 class Ekf:
@@ -48,14 +48,10 @@ class Ekf:
         y = residual(k, z, self.model.h(kind, x))
         PHt = P @ H.T
         S = H @ PHt + R
-        rc = rcond(S)
-        if rc <= 0.0:
-            return Innovation(y, S, float("inf"), rc, False)
-        Si = inv_small(S)
-        nis = float(y @ Si @ y)
-        if gate is not None and nis > gate:
+        nis, rc, apply = judge(y, S, gate)
+        if not apply:
             return Innovation(y, S, nis, rc, False)
-        K = PHt @ Si
+        K = PHt @ inv_small(S)
         x = x + K @ y
         x[PSI] = wrap_2pi(x[PSI])
         IKH = _eye(len(x)) - K @ H
@@ -69,10 +65,7 @@ class Ekf:
 
     def reset_position(self, z: np.ndarray, R: np.ndarray) -> None:
         """Position from a fix alone (a GNSS jump): its covariance R, no correlations."""
-        self.x[0:2] = z
-        self.P[0:2, :] = 0.0
-        self.P[:, 0:2] = 0.0
-        self.P[0:2, 0:2] = R
+        reset_position(self.x, self.P, z, R)
 
     def ensemble_size(self) -> int:
         return 0

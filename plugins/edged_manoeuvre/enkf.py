@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import KINDS, PSI, Innovation, circular_mean, rcond, residual, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, Innovation, circular_mean, judge, residual, rk4, wrap_2pi, wrap_pi
 
 
 class Enkf:
@@ -70,11 +70,8 @@ class Enkf:
         B = residual(k, Z, zbar)
         S = B.T @ B / (N - 1) + R
         y = residual(k, np.asarray(z, dtype=float), zbar)
-        rc = rcond(S)
-        if rc <= 0.0:
-            return Innovation(y, S, float("inf"), rc, False)
-        nis = float(y @ np.linalg.solve(S, y))
-        if gate is not None and nis > gate:
+        nis, rc, apply = judge(y, S, gate)
+        if not apply:
             return Innovation(y, S, nis, rc, False)
         K = np.linalg.solve(S, (A.T @ B / (N - 1)).T).T
         E = self.rng.multivariate_normal(np.zeros(k.dim), R, size=N, method="cholesky")

@@ -178,3 +178,50 @@ def inv_small(S: np.ndarray) -> np.ndarray:
         det = a * d - b * c
         return np.array([[d, -b], [-c, a]]) / det
     return np.linalg.inv(S)
+
+
+def h_state(kind: str, x: np.ndarray) -> np.ndarray | None:
+    """h of the sensors that read a state directly (position, heading, yaw rate), the
+    same in both models; None for the others."""
+    if kind == "position":
+        return x[..., 0:2].copy()
+    if kind == "heading":
+        return x[..., PSI : PSI + 1].copy()
+    if kind == "yaw_rate":
+        return x[..., R : R + 1].copy()
+    return None
+
+
+def H_state(kind: str, n: int) -> np.ndarray | None:
+    """Their Jacobian (rows of the identity); None for the others."""
+    if kind == "position":
+        Hm = np.zeros((2, n))
+        Hm[0, 0] = Hm[1, 1] = 1.0
+    elif kind == "heading":
+        Hm = np.zeros((1, n))
+        Hm[0, PSI] = 1.0
+    elif kind == "yaw_rate":
+        Hm = np.zeros((1, n))
+        Hm[0, R] = 1.0
+    else:
+        return None
+    return Hm
+
+
+def judge(y: np.ndarray, S: np.ndarray, gate: float | None) -> tuple[float, float, bool]:
+    """(NIS, rcond(S), apply?) of an innovation: not applied when S is singular or the
+    NIS is beyond the gate; every filter's update asks this before changing anything."""
+    rc = rcond(S)
+    if rc <= 0.0:
+        return float("inf"), rc, False
+    nis = float(y @ inv_small(S) @ y)
+    return nis, rc, gate is None or nis <= gate
+
+
+def reset_position(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray) -> None:
+    """The position from a fix alone (after a GNSS jump): z with covariance R, no
+    correlation with the other states, in place."""
+    x[0:2] = z
+    P[0:2, :] = 0.0
+    P[:, 0:2] = 0.0
+    P[0:2, 0:2] = R

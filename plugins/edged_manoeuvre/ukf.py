@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unscented_transform
 
-from .model import KINDS, PSI, Innovation, circular_mean, rcond, residual, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, Innovation, circular_mean, judge, reset_position, residual, rk4, wrap_2pi, wrap_pi
 
 
 def residual_x(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -94,11 +94,8 @@ class Ukf:
         sig_h = self.model.h(kind, kf.sigmas_f)
         zp, S = unscented_transform(sig_h, kf.Wm, kf.Wc, R, z_mean, res_z)
         y = res_z(np.asarray(z, dtype=float), zp)
-        rc = rcond(S)
-        if rc <= 0.0:
-            return Innovation(y, S, float("inf"), rc, False)
-        nis = float(y @ np.linalg.solve(S, y))
-        if gate is not None and nis > gate:
+        nis, rc, apply = judge(y, S, gate)
+        if not apply:
             return Innovation(y, S, nis, rc, False)
         kf._dim_z = k.dim
         kf.update(np.asarray(z, dtype=float), R=R, hx=lambda s: self.model.h(kind, s))
@@ -112,11 +109,7 @@ class Ukf:
 
     def reset_position(self, z: np.ndarray, R: np.ndarray) -> None:
         """Position from a fix alone (a GNSS jump): its covariance R, no correlations."""
-        kf = self._kf
-        kf.x[0:2] = z
-        kf.P[0:2, :] = 0.0
-        kf.P[:, 0:2] = 0.0
-        kf.P[0:2, 0:2] = R
+        reset_position(self._kf.x, self._kf.P, z, R)
 
     def ensemble_size(self) -> int:
         return 0
