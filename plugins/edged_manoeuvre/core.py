@@ -45,6 +45,9 @@ from .sources import SourceCopies
 RCOND_MIN = 1e-10
 #: A heading or yaw rate older than this does not start the filter.
 START_AGE = 1.0
+#: A current older than this (s of data time) no longer gives the drift through the
+#: water (a forecast's own validity; the stw estimator publishes every second).
+CURRENT_MAX_AGE = 3 * 3600.0
 #: The same lat, lon from one source within this many seconds is one fix told again.
 REPEAT_WINDOW = 0.9
 #: The starting line is fitted to fixes of at most this many seconds (a 1 Hz GNSS:
@@ -410,7 +413,7 @@ class ManoeuvreCore:
         lat, lon = self.plane.to_geodetic(float(x[0]), float(x[1]))
         drift_water = None
         cur = self._current
-        if cur is not None:
+        if cur is not None and t - cur[0] <= CURRENT_MAX_AGE:
             psi = float(x[PSI])
             cu = cur[1] * math.cos(psi) + cur[2] * math.sin(psi)
             cv = -cur[1] * math.sin(psi) + cur[2] * math.cos(psi)

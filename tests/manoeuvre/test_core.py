@@ -175,6 +175,9 @@ def test_drift_through_the_water_with_a_known_current():
     psi = v["heading"]
     cu, cv = 0.5 * math.sin(psi), 0.5 * math.cos(psi)
     assert v["drift_angle_water"] == pytest.approx(math.atan2(v["v"] - cv, v["u"] - cu), abs=1e-9)
+    # a current three hours old says nothing any more
+    core._current = (core._current[0] - 4 * 3600.0, *core._current[1:])
+    assert core.tick(ms[-1].t + 0.1)[0].values["drift_angle_water"] is None
 
 
 def test_drift_through_the_water_from_the_stw_estimator():
