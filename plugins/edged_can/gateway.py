@@ -100,6 +100,8 @@ class GatewayConfig(InputConfig, ReconnectSettings):
     @field_validator("handshake")
     @classmethod
     def _handshake_on_serial(cls, v: bool | None, info: ValidationInfo) -> bool:
+        if v and info.data.get("gateway") not in HANDSHAKES:
+            raise ValueError(f"only {' and '.join(sorted(HANDSHAKES))} have a start-up conversation")
         if v is not None:
             return v
         return info.data.get("transport") == "serial" and info.data.get("gateway") in HANDSHAKES

@@ -224,6 +224,9 @@ def test_serial_config_errors_name_the_key():
         GatewayConfig(type="n2k_gateway", gateway="actisense_bst", transport="serial")
     with pytest.raises(ValidationError, match="port"):
         GatewayConfig(type="n2k_gateway", gateway="ydwg_raw", transport="udp")
+    with pytest.raises(ValidationError, match="handshake"):  # a YDWG has no start-up conversation
+        GatewayConfig(type="n2k_gateway", gateway="ydwg_raw", transport="serial", device="/dev/ttyUSB0",
+                      handshake=True)
     cfg = GatewayConfig(type="n2k_gateway", gateway="actisense_bst", transport="tcp", host="10.0.0.5", port=50001)
     assert cfg.handshake is False  # a relay in between did the start-up
     cfg = GatewayConfig(type="n2k_gateway", gateway="actisense_bst", transport="serial", device="/dev/ttyUSB0")
