@@ -80,25 +80,29 @@ class QScale:
     """The process-noise scale of one group of states: `base × boost`.
 
     boost (≥ 1, fast): over the last `window` seconds, ΣNIS above the χ² 95 % band of
-    Σdof makes it grow as boost ← boost · (ΣNIS/Σdof)^(Δt/τ_up) (at most `max_boost`);
+    Σdof makes it grow as boost ← boost · (ΣNIS/Σdof)^(Δt/τ_up), up to `boost_cap`;
     otherwise it relaxes to 1 with τ_down. A rudder or engine order, caught in a second.
-    base (slow, either way): over the last `long_window` seconds, ΣNIS outside its band
-    moves base by (ΣNIS/Σdof)^(Δt/τ_base), within [min_base, max_base], while boost
-    is at rest; and upward at the short window's rate while boost is at its maximum.
-    The vessel's own agility: a 10 m launch yaws a hundred times harder than a
-    tanker, and the configured noise is right for neither.
+    base (slow, either way): over the last `long_window` seconds, base ← base ·
+    (ΣNIS/Σdof)^(Δt/τ), within [min_base, max_base], while boost is at rest (a
+    stochastic approximation of ΣNIS = Σdof); and upward at the short window's rate
+    while boost is at its cap. τ grows from τ_up to `tau_base` over the first
+    `start_span` seconds: the configured level is a guess for any vessel and the
+    first minute's NIS says better. The vessel's own agility: a 10 m launch yaws a
+    hundred times harder than a tanker, and the configured noise is right for neither.
     """
 
     def __init__(self, window: float = 2.0, tau_up: float = 1.0, tau_down: float = 10.0, max_boost: float = 100.0,
-                 long_window: float = 60.0, tau_base: float = 30.0, min_base: float = 1e-3,
-                 max_base: float = 1e4) -> None:
+                 long_window: float = 30.0, tau_base: float = 20.0, min_base: float = 1e-3,
+                 max_base: float = 1e4, start_span: float = 120.0) -> None:
         self.tau_up, self.tau_down, self.max_boost = tau_up, tau_down, max_boost
         self.tau_base, self.min_base, self.max_base = tau_base, min_base, max_base
+        self.start_span = start_span
         self._short = _Window(window, 4)
         self._long = _Window(long_window, 100)
         self.base = 1.0
         self.boost = 1.0
         self._t: float | None = None
+        self._t0: float | None = None
         #: ΣNIS/Σdof over the short window and whether it lies in the band.
         self.ratio = 1.0
         self.in_band = True
@@ -107,6 +111,13 @@ class QScale:
     def scale(self) -> float:
         return self.base * self.boost
 
+    @property
+    def boost_cap(self) -> float:
+        """`max_boost` above the configured level, or above the base when that is
+        higher: after an hour of steady steaming has taken the base down a hundredfold,
+        a hard-over order must still reach what the configuration allows in seconds."""
+        return self.max_boost / min(self.base, 1.0)
+
     def add(self, t: float, nis: float, dof: int) -> None:
         if not math.isfinite(nis):
             return
@@ -114,6 +125,8 @@ class QScale:
         self._long.add(t, nis, dof)
         dt = 0.0 if self._t is None else max(0.0, t - self._t)
         self._t = t
+        if self._t0 is None:
+            self._t0 = t
         w = self._short
         if w.dof < 4:
             return
@@ -122,8 +135,8 @@ class QScale:
         self.ratio = total / w.dof
         self.in_band = lo <= total <= hi
         if total > hi:
-            self.boost = min(self.max_boost, self.boost * self.ratio ** (dt / self.tau_up))
-            if self.boost >= self.max_boost:  # the fast factor cannot hold it: the level moves
+            self.boost = min(self.boost_cap, self.boost * self.ratio ** (dt / self.tau_up))
+            if self.boost >= self.boost_cap:  # the fast factor cannot hold it: the level moves
                 self.base = min(self.max_base, self.base * self.ratio ** (dt / self.tau_base))
         elif self.boost > 1.0:
             self.boost = 1.0 + (self.boost - 1.0) * math.exp(-dt / self.tau_down)
@@ -131,15 +144,15 @@ class QScale:
                 self.boost = 1.0
         if self.boost > 1.05 or self._long.dof < 100 or self._long.q[-1][0] - self._long.q[0][0] < 0.5 * self._long.span:
             return
-        lo, hi = band(self._long.dof)
         total = max(self._long.nis, 1e-9)
-        if not lo <= total <= hi:
-            self.base = min(self.max_base, max(self.min_base,
-                                               self.base * (total / self._long.dof) ** (dt / self.tau_base)))
+        # the first minutes count more (as a mean of few samples): the configured level
+        # is a guess for any vessel, the NIS soon says better
+        tau = max(self.tau_base * min(1.0, (t - self._t0) / self.start_span), self.tau_up)
+        self.base = min(self.max_base, max(self.min_base, self.base * (total / self._long.dof) ** (dt / tau)))
 
     def bump(self, factor: float) -> None:
         """A sensor kept out by its gate too long: the model, not the sensor, is wrong."""
-        self.boost = min(self.max_boost, self.boost * factor)
+        self.boost = min(self.boost_cap, self.boost * factor)
 
     @property
     def raised(self) -> bool:
@@ -154,20 +167,56 @@ class QScale:
 
 
 class NoiseEstimate:
-    """One sensor's measurement variance (diagonal), learned from its innovations."""
+    """One sensor's measurement variance (diagonal), learned from its innovations.
 
-    def __init__(self, var0: np.ndarray, floor: np.ndarray, samples: float = 600.0, ceil: float = 25.0) -> None:
+    A fast sensor averaged in blocks (`decimate.Decimator`) also gives its noise
+    directly: each block's scatter about its line in time, over n, is the variance of
+    its mean when the readings are independent, and no smaller when they are not
+    (positively correlated readings scatter less and average worse). So the first
+    `prime` blocks' mean scatter is the variance at once (matching the residuals from
+    a conservative start takes minutes: the filter cannot yet tell sensor noise from
+    motion), and afterwards the running mean scatter is the variance's floor: the
+    residuals may raise it (correlated noise, a model misfit) but cannot take it
+    below what the sensor shows, which is where they would drift while the process
+    noise is still too high (both explain the same innovations)."""
+
+    def __init__(self, var0: np.ndarray, floor: np.ndarray, samples: float = 600.0, ceil: float = 25.0,
+                 prime: int = 20) -> None:
         self.var0 = np.asarray(var0, dtype=float)
         self.var = self.var0.copy()
         self.alpha = 1.0 / samples
-        self.lo, self.hi = np.asarray(floor, dtype=float) ** 2, self.var0 * ceil
+        self.floor = np.asarray(floor, dtype=float) ** 2
+        self.lo, self.hi = self.floor.copy(), self.var0 * ceil
         self.n = 0
+        self.prime_blocks = prime
+        self.scatter: np.ndarray | None = None
+        self._scatter_n = 0
 
     def R(self) -> np.ndarray:
         return np.diag(self.var)
 
+    @property
+    def priming(self) -> bool:
+        return 0 < self._scatter_n < self.prime_blocks
+
+    def prime(self, scatter: np.ndarray | None) -> None:
+        """One block's variance of its mean from its own readings (None: it had none)."""
+        if scatter is None or scatter.shape != self.var.shape:
+            return
+        self._scatter_n += 1
+        a = max(self.alpha, 1.0 / self._scatter_n)
+        self.scatter = scatter.copy() if self.scatter is None else (1 - a) * self.scatter + a * scatter
+        self.lo = np.minimum(np.maximum(self.floor, self.scatter), self.hi)
+        if self._scatter_n <= self.prime_blocks:
+            self.var = self.lo.copy()
+            self.n += 1
+        else:
+            self.var = np.maximum(self.var, self.lo)
+
     def add(self, y: np.ndarray, S: np.ndarray, R: np.ndarray) -> None:
         """One applied update's innovation y, its covariance S and the R it used."""
+        if self.priming:
+            return
         RSi = R @ np.linalg.inv(S) if S.shape[0] > 2 else R @ _inv(S)
         eps = RSi @ y
         sample = eps * eps + np.diag(R - RSi @ R)

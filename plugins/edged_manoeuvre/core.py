@@ -66,15 +66,21 @@ SIGMA_FLOOR = {
     "yaw_rate": np.array([0.0005 * DEG]),
     "accel": np.full(2, 0.001),
 }
-#: The NIS adaptation's two groups: which sensors' NIS drives each, and which states'
-#: process noise it scales. A rudder order shows in heading and rate of turn and is
-#: the yaw states' business; an engine order or the sway of a turn shows in positions
-#: and accelerometers and is the translation's. Pooling them would let three
-#: consistent sensors hide the fourth's inconsistency.
+#: The NIS adaptation's groups: which states' process noise each scales, and the
+#: sensors whose NIS drives it, in order of preference: the first that has updated in
+#: the last `DRIVER_SPAN` s drives it alone. Each group listens to the sensor that sees
+#: its states most directly: a rudder order shows first in the rate of turn (in the
+#: heading when there is no rate sensor), an engine order or a turn's sway in the
+#: accelerometers (in the positions without them). Pooling sensors would let a
+#: consistent one hide another's inconsistency: a 0.1° heading's NIS barely moves when
+#: the yaw noise is ten times too high, a 0.005°/s gyro's does. And the sensor that
+#: drives a group does not also have to learn its own noise from the same NIS: the
+#: GNSS's is then learned against a process noise the accelerometers have fixed.
 GROUPS = {
-    "yaw": (("heading", "yaw_rate"), (5,)),
-    "translation": (("position", "accel"), (2, 3, 6, 7)),
+    "yaw": (("yaw_rate", "heading"), (5,)),
+    "translation": (("accel", "position"), (2, 3, 6, 7)),
 }
+DRIVER_SPAN = 5.0
 #: Health text of each input's absence.
 COSTS = {
     "position": "no GNSS position: the filter cannot start",
@@ -107,7 +113,7 @@ class ManoeuvreCore:
         # An ensemble's spread is its covariance: lowering the noise that keeps the
         # members apart collapses it, so an EnKF's process noise is only ever raised.
         self.qscales = {g: QScale(min_base=1.0 if cfg.filter == "enkf" else 1e-3) for g in GROUPS}
-        self._group_of = {k: g for g, (kinds, _) in GROUPS.items() for k in kinds}
+        self._last_update: dict[str, float] = {}
         self.noise: dict[tuple[str, str], NoiseEstimate] = {}
         self.gates: dict[tuple[str, str], Gate] = {}
         self.monitor = InnovationMonitor(window=200)
@@ -305,7 +311,7 @@ class ManoeuvreCore:
         block = self.decimator.push(kind, source, t, z, KINDS[kind].angle_rows)
         if block is None:
             return
-        t, z, samples = block
+        t, z, _samples, scatter = block
         dt = t - self.t
         if dt < -0.5:
             self.rejected[f"{kind}.late"] += 1
@@ -318,6 +324,8 @@ class ManoeuvreCore:
             # independent (a gateway's bursts of repeated readings are not): start from
             # one reading's and let the residuals bring it down.
             noise = self.noise[key] = NoiseEstimate(self.sigma0[kind] ** 2, SIGMA_FLOOR[kind])
+        if cfg.adapt_r:
+            noise.prime(scatter)
         gate = self.gates.get(key)
         if gate is None:
             gate = self.gates[key] = Gate()
@@ -344,7 +352,8 @@ class ManoeuvreCore:
             if cfg.adapt_q and limit is not None:
                 # a gated measurement still says the model is off: counted, at most at
                 # twice the gate, so that one outlier cannot move Q much
-                self.qscales[self._group_of[kind]].add(t, min(inn.nis, 2.0 * limit), dof)
+                for q in self._driven_by(kind, t):
+                    q.add(t, min(inn.nis, 2.0 * limit), dof)
             gate.result(False)
             if kind == "position" and gate.in_row >= gate.run:
                 self._position_jump(z, R_)
@@ -352,12 +361,28 @@ class ManoeuvreCore:
         if gate.result(True):
             self.resets[f"{kind}.gate_released"] += 1
             if cfg.adapt_q:
-                self.qscales[self._group_of[kind]].bump(10.0)
+                for q in self._driven_by(kind, t):
+                    q.bump(10.0)
         self.monitor.update(kind, inn.nis, dof)
+        driven = self._driven_by(kind, t)
         if cfg.adapt_q:
-            self.qscales[self._group_of[kind]].add(t, inn.nis, dof)
-        if cfg.adapt_r and not self.qscales[self._group_of[kind]].raised:
-            noise.add(inn.y, inn.S, R_)
+            for q in driven:
+                q.add(t, inn.nis, dof)
+        if cfg.adapt_r and not any(self.qscales[g].raised for g, (kinds, _) in GROUPS.items() if kind in kinds):
+            noise.add(inn.y, inn.S, R_)  # a manoeuvre is not sensor noise
+
+    def _driven_by(self, kind: str, t: float) -> list[QScale]:
+        """The groups whose preferred sensor, of those heard in the last DRIVER_SPAN s,
+        is `kind` (`GROUPS`)."""
+        self._last_update[kind] = t
+        out = []
+        for g, (kinds, _) in GROUPS.items():
+            for k in kinds:
+                if t - self._last_update.get(k, -math.inf) <= DRIVER_SPAN:
+                    if k == kind:
+                        out.append(self.qscales[g])
+                    break
+        return out
 
     def _position_jump(self, z: np.ndarray, R_: np.ndarray) -> None:
         """Fixes kept out `run` times in a row: the GNSS position jumped (or the vessel

@@ -8,6 +8,14 @@ is averaged only when its own interval (a running median-like estimate) is short
 than 2/3 of the block: a 10 Hz GNSS or gyro goes to the filter sample by sample, with
 no added delay. A block closes with the sample that fills it; its measurement is the
 mean of its values (angles: the circular mean) at the mean of its times.
+
+A block also says how noisy its readings are: the scatter of its values about their
+straight-line fit in time (a ramp is the ship, not noise) divided by n is the variance
+of the mean when the readings are independent. That is known after the first block,
+where learning it from the innovations takes minutes (the filter cannot tell at first
+whether an innovation is sensor noise or motion). Readings that repeat exactly (a
+gateway's bursts, a sensor polled faster than it measures) are not independent: such
+a block gives no scatter.
 """
 
 from __future__ import annotations
@@ -20,7 +28,8 @@ from .model import wrap_2pi
 
 
 class _Source:
-    __slots__ = ("last_t", "interval", "t_sum", "z_sum", "s_sum", "c_sum", "n", "t0")
+    __slots__ = ("last_t", "interval", "t_sum", "z_sum", "s_sum", "c_sum", "n", "t0",
+                 "tt_sum", "tz_sum", "zz_sum", "last_z", "repeats")
 
     def __init__(self) -> None:
         self.last_t: float | None = None
@@ -35,9 +44,11 @@ class Decimator:
 
     def push(self, kind: str, source: str, t: float, z: np.ndarray,
              angle_rows: tuple[int, ...] = ()) -> tuple[float, np.ndarray, int] | None:
-        """(t, z, samples) to update with now, or None while a block fills."""
+        """(t, z, samples, scatter) to update with now, or None while a block fills;
+        scatter is the per-row variance of the mean from the block's own readings
+        (None for a single reading, angles, or repeated readings)."""
         if self.period <= 0.0:
-            return t, z, 1
+            return t, z, 1, None
         s = self._src.get((kind, source))
         if s is None:
             s = self._src[(kind, source)] = _Source()
@@ -50,13 +61,22 @@ class Decimator:
         s.last_t = t
         if s.interval is None or s.interval > self.period * (2.0 / 3.0):
             s.n = 0
-            return t, z, 1
+            return t, z, 1, None
         if s.n == 0:
             s.t0, s.t_sum, s.z_sum = t, 0.0, np.zeros_like(z)
             s.s_sum, s.c_sum = np.zeros_like(z), np.zeros_like(z)
+            s.tt_sum, s.tz_sum, s.zz_sum = 0.0, np.zeros_like(z), np.zeros_like(z)
+            s.last_z, s.repeats = None, 0
         s.n += 1
         s.t_sum += t
         s.z_sum = s.z_sum + z
+        tr = t - s.t0
+        s.tt_sum += tr * tr
+        s.tz_sum = s.tz_sum + tr * z
+        s.zz_sum = s.zz_sum + z * z
+        if s.last_z is not None and np.array_equal(z, s.last_z):
+            s.repeats += 1
+        s.last_z = z
         if angle_rows:
             s.s_sum = s.s_sum + np.sin(z)
             s.c_sum = s.c_sum + np.cos(z)
@@ -67,4 +87,17 @@ class Decimator:
         for i in angle_rows:
             zm[i] = wrap_2pi(math.atan2(s.s_sum[i], s.c_sum[i]))
         s.n = 0
-        return s.t_sum / n, zm, n
+        return s.t_sum / n, zm, n, self._scatter(s, n, zm, angle_rows)
+
+    @staticmethod
+    def _scatter(s: _Source, n: int, zm: np.ndarray, angle_rows: tuple[int, ...]) -> np.ndarray | None:
+        """Σ(z − a − b·t)² / (n − 2) / n per row: the residual variance of the block's
+        least-squares line, over n. None below 4 readings or with any exact repeat."""
+        if n < 4 or s.repeats or angle_rows:
+            return None
+        tm = (s.t_sum - n * s.t0) / n  # mean of the times since t0
+        stt = s.tt_sum - n * tm * tm
+        stz = s.tz_sum - n * tm * zm
+        szz = s.zz_sum - n * zm * zm
+        res = szz - (stz * stz / stt if stt > 0.0 else 0.0)
+        return np.maximum(res, 0.0) / ((n - 2) * n)

@@ -25,7 +25,10 @@ TURN = Manoeuvre(duration=120.0, heading_deg=350.0,
 
 
 def _core(model: str, filt: str, **kw) -> ManoeuvreCore:
-    return ManoeuvreCore(ManoeuvreConfig(type="manoeuvre", model=model, filter=filt, members=60, **kw))
+    # The EnKF with its default 100 members: with 60, the sway (no sensor of its own)
+    # loses its spread to the 8 Hz rate gyro's and accelerometers' updates and drifts
+    # by 0.1–0.3 m/s (measured on four seeds).
+    return ManoeuvreCore(ManoeuvreConfig(type="manoeuvre", model=model, filter=filt, **kw))
 
 
 def _errors(out, truth, t_from: float, skip: tuple[float, float] = (0.0, 0.0)):
@@ -68,8 +71,10 @@ def test_every_combination_tracks_a_sudden_turn(model, filt):
     out = run(core, voyage.measurements())
     assert core.divergences == 0 and out
     # GNSS σ 1.5 m at 10 Hz, gyro 0.1°, rate gyro 0.01°/s at 50 Hz
-    u, v, r, psi = _errors(out, voyage.truth, 20.0, skip=(ORDER, ORDER + 15.0))
-    ens = filt == "enkf"  # 60 members' sampling noise (the default is 100)
+    # after 30 s, as the issue's targets: the first seconds are the start's transient
+    # (the accelerometer biases are not yet told apart from the accelerations)
+    u, v, r, psi = _errors(out, voyage.truth, 30.0, skip=(ORDER, ORDER + 15.0))
+    ens = filt == "enkf"  # 100 members' sampling noise
     assert u < (0.06 if ens else 0.025) and v < (0.06 if ens else 0.025), (u, v)
     assert r < math.radians(0.005), math.degrees(r)  # the gyro's own noise is 0.01°/s
     assert psi < math.radians(0.05), math.degrees(psi)
