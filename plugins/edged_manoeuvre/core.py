@@ -324,7 +324,10 @@ class ManoeuvreCore:
             # independent (a gateway's bursts of repeated readings are not): start from
             # one reading's and let the residuals bring it down.
             noise = self.noise[key] = NoiseEstimate(self.sigma0[kind] ** 2, SIGMA_FLOOR[kind])
-        if cfg.adapt_r:
+        if cfg.adapt_r and cfg.filter != "enkf":
+            # Not an ensemble's: perturbed observations far more precise than its spread
+            # collapse it through the sampling error of a hundred members (the sway,
+            # which no sensor sees, then drifts); its sensors start conservative.
             noise.prime(scatter)
         gate = self.gates.get(key)
         if gate is None:
@@ -368,8 +371,11 @@ class ManoeuvreCore:
         if cfg.adapt_q:
             for q in driven:
                 q.add(t, inn.nis, dof)
-        if cfg.adapt_r and not any(self.qscales[g].raised for g, (kinds, _) in GROUPS.items() if kind in kinds):
+        if cfg.adapt_r and not any(q.raised for q in self._groups_of(kind)):
             noise.add(inn.y, inn.S, R_)  # a manoeuvre is not sensor noise
+
+    def _groups_of(self, kind: str) -> list[QScale]:
+        return [self.qscales[g] for g, (kinds, _) in GROUPS.items() if kind in kinds]
 
     def _driven_by(self, kind: str, t: float) -> list[QScale]:
         """The groups whose preferred sensor, of those heard in the last DRIVER_SPAN s,
