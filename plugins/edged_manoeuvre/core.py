@@ -81,6 +81,8 @@ GROUPS = {
     "translation": (("accel", "position"), (2, 3, 6, 7)),
 }
 DRIVER_SPAN = 5.0
+#: A GNSS jump this soon (s) after the start means the start was wrong: start again.
+RESTART_SPAN = 20.0
 #: Health text of each input's absence.
 COSTS = {
     "position": "no GNSS position: the filter cannot start",
@@ -133,6 +135,7 @@ class ManoeuvreCore:
         self._nis: float | None = None
         self._rcond: float | None = None
         self._init_rng = init_rng
+        self._t_started = -math.inf
         self._prediction: tuple[float, list[dict[str, float]]] | None = None
         #: When a list (the Monte-Carlo harness sets one): (t, kind, NIS, dof, applied,
         #: whitened innovation S^(-1/2) y) of every update, for the paper's tables.
@@ -265,6 +268,7 @@ class ManoeuvreCore:
             x0[PSI] = wrap_2pi(x0[PSI])
         self.filter = self._make_filter(x0, P0)
         self.t = t
+        self._t_started = t
         self._fixes.clear()
 
     def _make_filter(self, x0: np.ndarray, P0: np.ndarray) -> Any:
@@ -393,7 +397,17 @@ class ManoeuvreCore:
     def _position_jump(self, z: np.ndarray, R_: np.ndarray) -> None:
         """Fixes kept out `run` times in a row: the GNSS position jumped (or the vessel
         was moved). The position starts again from the new fix; velocities, heading and
-        the rest are kept."""
+        the rest are kept. Within `RESTART_SPAN` s of the start, the start itself was
+        wrong (a velocity from a few noisy fixes that the accelerometers cannot
+        correct, and that keeps the fixes out): the filter starts again from the fixes."""
+        if self.t is not None and self.t - self._t_started < RESTART_SPAN:
+            self.resets["start_again"] += 1
+            self.filter = None
+            self.t = None
+            for q in self.qscales.values():
+                q.reset()
+            self._fixes.clear()
+            return
         self.filter.reset_position(z, R_)
         self.resets["position_jump"] += 1
         for k, g in self.gates.items():

@@ -75,6 +75,40 @@ def test_paper_mode_starts_from_two_fixes_with_the_papers_p0():
     assert core.cfg.substep == 0.005 and not core.cfg.adapt_q and not core.cfg.imu_bias
 
 
+def test_a_gnss_jump_just_after_the_start_starts_the_filter_again():
+    """The same 150 m jump 3 s after the filter started: the fixes it started from may
+    have been the wrong ones (a start velocity the accelerometers cannot correct keeps
+    every later fix out), so it starts again from the fixes, says so in health, and
+    has the right velocities after."""
+    voyage = _voyage()
+    ms = list(voyage.measurements())
+    probe = _core()
+    started = None
+    for m in ms:
+        probe.step(m)
+        if probe.filter is not None:
+            started = m.t
+            break
+    assert started is not None
+    plane = LocalPlane(57.6, 11.5)
+    fed = []
+    for m in ms:
+        if m.kind == "position" and started + 3.0 <= m.t < started + 13.0:
+            n, e = plane.to_ne(m.values["lat"], m.values["lon"])
+            lat, lon = plane.to_geodetic(n, e + 150.0)
+            m = Measurement("position", m.source, m.t, {"lat": lat, "lon": lon})
+        fed.append(m)
+    core = _core()
+    out = run(core, fed)
+    h = core.health()
+    assert h["events"].get("start_again") == 2 and "position_jump" not in h["events"]
+    assert core.divergences == 0
+    late = [e for e in out if e.t > started + 45.0]
+    tr = voyage.truth
+    assert late and max(abs(e.values["u"] - truth_at(tr, e.t)[3]) for e in late) < 0.1
+    assert max(abs(e.values["v"] - truth_at(tr, e.t)[4]) for e in late) < 0.1
+
+
 def test_a_gnss_jump_is_kept_out_then_taken_as_the_new_position():
     """150 m east for 10 s (the `faults` scenario's jump): gated five times, then the
     position starts again from the fixes; velocities never jump."""
