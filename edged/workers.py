@@ -172,18 +172,23 @@ class ProcessRunner:
         try:
             return conn.recv()
         except (EOFError, OSError):
-            code = self.process.exitcode if self.process is not None else None
-            self.process.join(1.0) if self.process is not None else None
-            code = self.process.exitcode if self.process is not None else code
-            self._kill()
-            raise CoreFailed(f"the core's process died (exit code {code})", []) from None
+            raise self._died() from None
+
+    def _died(self) -> CoreFailed:
+        """The pipe broke, on a send or a receive (which one first is a race): one
+        report either way, with the exit code the operator needs (-9: killed)."""
+        code = None
+        if self.process is not None:
+            self.process.join(1.0)
+            code = self.process.exitcode
+        self._kill()
+        return CoreFailed(f"the core's process died (exit code {code})", [])
 
     def _exchange(self, calls: list[Call]) -> list[list[Any]]:
         try:
             self._conn.send(("calls", calls))
-        except (OSError, ValueError) as exc:  # BrokenPipe: the child is gone
-            self._kill()
-            raise CoreFailed(f"the core's process is gone: {exc}", []) from None
+        except (OSError, ValueError):  # BrokenPipe: the child is gone
+            raise self._died() from None
         msg = self._recv(self.watchdog, "batch")
         if msg[0] == "ok":
             self.health_report = msg[2]
