@@ -402,11 +402,7 @@ class ManoeuvreCore:
         correct, and that keeps the fixes out): the filter starts again from the fixes."""
         if self.t is not None and self.t - self._t_started < RESTART_SPAN:
             self.resets["start_again"] += 1
-            self.filter = None
-            self.t = None
-            for q in self.qscales.values():
-                q.reset()
-            self._fixes.clear()
+            self._start_again()
             return
         self.filter.reset_position(z, R_)
         self.resets["position_jump"] += 1
@@ -418,6 +414,10 @@ class ManoeuvreCore:
         self.divergences += 1
         self.resets["diverged"] += 1
         self.monitor.reset(why, self.t)
+        self._start_again()
+
+    def _start_again(self) -> None:
+        """No filter until the next fixes start one (`_try_start`)."""
         self.filter = None
         self.t = None
         for q in self.qscales.values():
