@@ -82,9 +82,11 @@ class QScale:
     boost (≥ 1, fast): over the last `window` seconds, ΣNIS above the χ² 95 % band of
     Σdof makes it grow as boost ← boost · (ΣNIS/Σdof)^(Δt/τ_up), up to `boost_cap`;
     below the band it falls as boost · (ΣNIS/Σdof)^(Δt/τ_fall) (an overshoot undone in
-    seconds); inside it, while ΣNIS < Σdof, it relaxes to 1 with τ_down, and holds
-    above (a steady turn keeps the boost it needs). A rudder or engine order, caught in a
-    second.
+    seconds), and so it does when the short band holds it but the last 8 s, a tighter
+    band of more samples, are below theirs (after an order, the NIS at 0.7 for half a
+    minute lowered 50-run averages out of their band); inside both, while ΣNIS < Σdof,
+    it relaxes to 1 with τ_down, and holds above (a steady turn keeps the boost it
+    needs). A rudder or engine order, caught in a second.
     base (slow, either way): over the last `long_window` seconds, base ← base ·
     (ΣNIS/Σdof)^(Δt/τ), within [min_base, max_base], while boost is at rest (a
     stochastic approximation of ΣNIS = Σdof); and upward at the short window's rate
@@ -103,6 +105,7 @@ class QScale:
         self.tau_fall = tau_fall
         self._short = _Window(window, 4)
         self._long = _Window(long_window, 100)
+        self._mid = _Window(8.0, 20)
         self.base = 1.0
         self.boost = 1.0
         self._t: float | None = None
@@ -126,6 +129,7 @@ class QScale:
         if not math.isfinite(nis):
             return
         self._short.add(t, nis, dof)
+        self._mid.add(t, nis, dof)
         self._long.add(t, nis, dof)
         dt = 0.0 if self._t is None else max(0.0, t - self._t)
         self._t = t
@@ -146,6 +150,10 @@ class QScale:
             # below the band: the boost overshot (an order is caught in a second, with
             # a factor of thousands); down as fast as the NIS says, not on the clock
             self.boost = max(1.0, self.boost * max(self.ratio, 0.01) ** (dt / self.tau_fall))
+        elif self.boost > 1.0 and self._mid.dof >= 20 and self._mid.nis < band(self._mid.dof)[0]:
+            # inside the short band, below the longer one's: the same fall, on more evidence
+            mr = self._mid.nis / self._mid.dof
+            self.boost = max(1.0, self.boost * max(mr, 0.01) ** (dt / self.tau_fall))
         elif self.boost > 1.0 and self.ratio < 1.0:
             self.boost = 1.0 + (self.boost - 1.0) * math.exp(-dt / self.tau_down)
             if self.boost < 1.0 + 1e-3:
@@ -169,6 +177,7 @@ class QScale:
     def reset(self) -> None:
         self.boost = 1.0
         self._short.clear()
+        self._mid.clear()
         self._long.clear()
         self._t = None
         self.ratio, self.in_band = 1.0, True
