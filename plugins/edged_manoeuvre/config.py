@@ -65,6 +65,12 @@ class ManoeuvreConfig(EstimatorConfig):
     #: every estimate); in between each estimate carries the last one, its `dt`
     #: counted from the estimate's own time.
     predict_rate: float = Field(1.0, ge=0.0, le=1000.0)
+    #: The predictions of the last `ellipse_window` seconds that have come due size
+    #: each horizon's ellipse, so that its `ellipse_sigmas` multiple held the GNSS
+    #: fixes at the Gaussian rate (2σ: 86.5 %; `calibrate.py`); 0 s: the model's
+    #: covariance as it is.
+    ellipse_window: float = Field(600.0, ge=0.0, le=86_400.0)
+    ellipse_sigmas: float = Field(2.0, ge=0.5, le=4.0)
     #: Largest Runge–Kutta sub-step, s.
     substep: float | None = Field(None, gt=0.0, le=1.0, validate_default=True)
 

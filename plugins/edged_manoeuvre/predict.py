@@ -9,13 +9,15 @@ turn rate is held: a ship on a constant rudder settles into a steady turn.
 
 The 1-σ ellipse of each predicted position comes from its 2 × 2 covariance: the axes
 are the square roots of its eigenvalues, the angle the major axis's direction from
-north, clockwise, in [0, π).
+north, clockwise, in [0, π). Its size is then calibrated on the ship's own track
+(`calibrate.py`): the model's covariance is right in the mean, but the errors minutes
+ahead are heavy-tailed.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -73,13 +75,22 @@ class Predictor:
             out.append((hz, x.copy(), P.copy()))
         return out
 
-    def predicted(self, x: np.ndarray, P: np.ndarray, Qc: np.ndarray,
-                  to_geodetic: Callable[[float, float], tuple[float, float]]) -> list[dict[str, float]]:
-        """The `predicted` list of `est/manoeuvre` (DESIGN §6)."""
+    def predicted(self, runs: list[tuple[float, np.ndarray, np.ndarray]],
+                  to_geodetic: Callable[[float, float], tuple[float, float]],
+                  scales: Sequence[float] | None = None) -> list[dict[str, float]]:
+        """The `predicted` list of `est/manoeuvre` (DESIGN §6) from `run`'s output, each
+        ellipse's axes multiplied by its horizon's scale (`calibrate.py`), and by more
+        if that would make it smaller than a shorter horizon's: uncertainty does not
+        shrink with time."""
         rows = []
-        for hz, xh, Ph in self.run(x, P, Qc):
+        last_major = 0.0
+        for i, (hz, xh, Ph) in enumerate(runs):
             lat, lon = to_geodetic(float(xh[0]), float(xh[1]))
             major, minor, angle = ellipse(Ph[0:2, 0:2])
+            k = 1.0 if scales is None else float(scales[i])
+            if major * k < last_major and major > 0.0:
+                k = last_major / major
+            last_major = major * k
             rows.append({"dt": hz, "lat": lat, "lon": lon, "heading": float(xh[PSI]),
-                         "std_major": major, "std_minor": minor, "std_angle": angle})
+                         "std_major": major * k, "std_minor": minor * k, "std_angle": angle})
         return rows

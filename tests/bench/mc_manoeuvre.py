@@ -177,7 +177,8 @@ def run_one(task: dict) -> dict:
     ms = load_ms(d)
     feed = select(ms, list(SOURCES) + ["velocity_ground"], {**SOURCES, "velocity_ground": DR_SOURCE})
     del ms
-    cfg = ManoeuvreConfig(type="manoeuvre", model=model, filter=filt, mode=task["mode"], seed=seed)
+    cfg = ManoeuvreConfig(type="manoeuvre", model=model, filter=filt, mode=task["mode"], seed=seed,
+                          **task.get("set", {}))
     core = ManoeuvreCore(cfg, init_rng=np.random.default_rng(1000 + seed))
     core.trace = []
     out = []
@@ -490,7 +491,7 @@ def print_predict(key: str, combo: str, acc: Acc, horizons: list[float]) -> None
     print(f"\n=== prediction · {key} · {combo} · {acc.n} runs: horizontal error of the predicted "
           f"position against truth at t+dt, beside dead reckoning (latest fix + latest SOG/COG) ===")
     print(f"{'dt s':>6s} {'':9s} {'n':>6s} {'RMS model':>10s} {'RMS DR':>9s} {'model/DR':>9s} "
-          f"{'med model':>10s} {'med DR':>8s} {'in 1σ %':>8s} {'in 2σ %':>8s}")
+          f"{'med model':>10s} {'med DR':>8s} {'in 1σ %':>8s} {'in 2σ %':>8s} {'d²/2':>6s}")
     for hi, hz in enumerate(horizons):
         for name, turning in (("turning", 1.0), ("straight", 0.0)):
             s = p[(p[:, 0] == hi) & (p[:, 1] == turning)]
@@ -499,8 +500,19 @@ def print_predict(key: str, combo: str, acc: Acc, horizons: list[float]) -> None
             rm = math.sqrt(np.mean(s[:, 2] ** 2))
             rd = math.sqrt(np.mean(s[:, 3] ** 2))
             print(f"{hz:6g} {name:9s} {len(s):6d} {rm:10.2f} {rd:9.2f} {rm / rd:9.2f} {np.median(s[:, 2]):10.2f} "
-                  f"{np.median(s[:, 3]):8.2f} {100 * np.mean(s[:, 4] <= 1.0):8.1f} {100 * np.mean(s[:, 4] <= 4.0):8.1f}")
-    print("    nominal: 39.3 % inside 1σ, 86.5 % inside 2σ; turning: |true r(t)| > 0.1°/s")
+                  f"{np.median(s[:, 3]):8.2f} {100 * np.mean(s[:, 4] <= 1.0):8.1f} {100 * np.mean(s[:, 4] <= 4.0):8.1f}"
+                  f" {np.mean(s[:, 4]) / 2:6.2f}")
+    print(f"{'dt s':>6s} {'share of truths inside the 1σ / 2σ ellipse, all predictions and by when they were made':s}")
+    for hi, hz in enumerate(horizons):
+        s = p[p[:, 0] == hi]
+        cells = []
+        for lo_t, hi_t in ((0.0, math.inf), (0.0, 300.0), (300.0, math.inf)):
+            w = s[(s[:, 5] >= lo_t) & (s[:, 5] < hi_t)]
+            if len(w):
+                cells.append(f"{lo_t:g}–{hi_t:g} s {100 * np.mean(w[:, 4] <= 1.0):5.1f} / {100 * np.mean(w[:, 4] <= 4.0):5.1f}")
+        print(f"{hz:6g} " + "   ".join(cells))
+    print("    nominal: 39.3 % inside 1σ, 86.5 % inside 2σ; turning: |true r(t)| > 0.1°/s; d²/2: mean squared "
+          "Mahalanobis distance of the truth over its 2 degrees of freedom (1 when the covariance is right)")
 
 
 def print_north(key: str, combo: str, acc: Acc, rot: Acc, truth: Any, half: float = 10.0) -> None:
@@ -568,6 +580,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--north", action="store_true", help="also the zigzag turned by 180°; NIS and RMSE around north")
     p.add_argument("--predict", action="store_true", help="prediction error against truth and dead reckoning")
     p.add_argument("--quick", action="store_true", help="3 runs, ctra+ekf only")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="a configuration value of the estimator (a number), e.g. --set q_yaw_accel=1e-6")
     a = p.parse_args(argv)
     if a.quick:
         a.runs, a.combos = 3, "ctra+ekf"
@@ -591,7 +605,8 @@ def main(argv: list[str] | None = None) -> int:
         truth = {k: load_truth_dir(d0[k]) for k in keys}
         K = {k: len(truth[k].t) + 1 for k in keys}
         tasks = [{"dir": dirs[i * a.runs + j], "seed": j, "key": k, "combo": c, "mode": a.mode,
-                  "warmup": a.warmup, "predict": a.predict}
+                  "warmup": a.warmup, "predict": a.predict,
+                  "set": {kv.split("=", 1)[0]: float(kv.split("=", 1)[1]) for kv in a.set}}
                  for c in combos for i, k in enumerate(keys) for j in range(a.runs)]
         accs = {(k, c): Acc(K[k]) for k in keys for c in combos}
         segs = {k: segments(truth[k], k, a.warmup) for k in keys}

@@ -325,3 +325,37 @@ def test_one_gyro_heard_twice_is_used_once_and_two_receivers_both():
     assert "position" not in h["muted"]
     assert h["innovation"]["heading"]["updates"] > 550  # the copy took over after 40 s
     assert "heading/n2k.18" in h["sensor_sigma"] and "position/gnss2" in h["sensor_sigma"]
+
+
+def _share_in_2_sigma(out: list, voyage: Manoeuvre, horizon: float) -> float:
+    plane = LocalPlane(57.6, 11.5)
+    inside = []
+    for e in out:
+        if e.t - T0 < 200.0 or e.t - T0 + horizon > voyage.duration:
+            continue
+        p = next(p for p in e.values["predicted"] if p["dt"] == horizon)  # made at this tick
+        tr = truth_at(voyage.truth, e.t + horizon)
+        n, ea = plane.to_ne(p["lat"], p["lon"])
+        dn, de = tr[1] - n, tr[2] - ea
+        a = p["std_angle"]
+        along, across = dn * math.cos(a) + de * math.sin(a), -dn * math.sin(a) + de * math.cos(a)
+        inside.append((along / p["std_major"]) ** 2 + (across / p["std_minor"]) ** 2 <= 4.0)
+    assert len(inside) > 100
+    return float(np.mean(inside))
+
+
+def test_a_prediction_ellipse_from_a_process_noise_far_too_high_is_sized_by_the_fixes():
+    """The configured yaw and jerk noise a hundred times what a steady turn needs: the
+    model's 2-σ ellipse at 30 s holds every truth with metres to spare; sized by the
+    fixes that came due, it is a tenth as large and still holds the truth (more often
+    than the Gaussian 86.5 %: it cannot be sized below the fixes' own noise)."""
+    voyage = _voyage(duration=500.0, r_deg=0.3, heading_deg=0.0)
+    kw = {"q_yaw_accel": 1e-5, "q_jerk": 1e-2, "predict_rate": 0.0}
+    raw, sized = _core(ellipse_window=0.0, **kw), _core(**kw)
+    out_raw, out_sized = run(raw, voyage.measurements()), run(sized, voyage.measurements())
+    assert _share_in_2_sigma(out_raw, voyage, 30.0) == 1.0
+    assert 0.8 < _share_in_2_sigma(out_sized, voyage, 30.0) < 1.0
+    assert raw.health()["ellipse_scale"]["30"] == 1.0
+    assert sized.health()["ellipse_scale"]["30"] < 0.1
+    major = [next(p["std_major"] for p in o[-1].values["predicted"] if p["dt"] == 30.0) for o in (out_raw, out_sized)]
+    assert major[1] < 0.1 * major[0]
