@@ -1,0 +1,273 @@
+"""The draft estimator's core: six marks filtered at their sensors' rate, the derived
+values at each tick (DESIGN §6 `est/draft`).
+
+Synchronous and fed in data-time order (the worker host ticks it at `publish_rate`):
+the same log gives the same estimates at any replay speed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from typing import Any
+
+from edged.records import Estimate, Measurement
+
+from . import derived
+from .config import DraftConfig
+from .marks import MarkState
+from .paper import PaperMark
+from .waves import WaveBank, WaveMark
+
+#: Below this the learned sensor σ is not believed (m): a stuck sensor is not precise.
+SIGMA_FLOOR = 0.001
+#: A mark's first reading and its start: ten seconds, then it is in.
+START_SETTLE = 10.0
+#: Seconds a good mark may disagree with the others before it is out.
+DISAGREE_HOLD = 2.0
+
+
+class MarkNoise:
+    """One mark's reading variance, learned from its residuals (R·S⁻¹·y)² + R − R²/S,
+    over about `samples` readings (a minute at 100 Hz)."""
+
+    def __init__(self, sigma: float, samples: float = 6000.0) -> None:
+        self.var = sigma * sigma
+        self.alpha = 1.0 / samples
+        self.n = 0
+
+    def add(self, y: float, S: float) -> None:
+        R = self.var
+        e = R / S * y
+        sample = e * e + R - R * R / S
+        a = max(self.alpha, 1.0 / (self.n + 2))
+        self.var = max((1.0 - a) * self.var + a * sample, SIGMA_FLOOR**2)
+        self.n += 1
+
+
+class DraftCore:
+    def __init__(self, cfg: DraftConfig) -> None:
+        self.cfg = cfg
+        self.inputs = frozenset({"draft", "depth"} | ({f"est/{cfg.stw_from}"} if cfg.stw_from else set()))
+        self.bank = WaveBank(cfg.wave_period_min, cfg.wave_period_max, cfg.resonators, cfg.damping, cfg.q_jerk)
+        self.filters: dict[str, WaveMark | PaperMark] = {}
+        self.noise: dict[str, MarkNoise] = {}
+        self.state = {m: MarkState(m) for m in derived.MARKS}
+        self.rejected: Counter[str] = Counter()
+        self.seen = 0
+        self._retuned: float | None = None
+        self._depth: tuple[float, float] | None = None  # t, depth below transducer
+        self._stw: tuple[float, float] | None = None  # t, m/s
+        self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
+        self._first_mean_t: float | None = None
+        self._ever_ok = False
+        self._filled: list[str] = []
+
+    # ------------------------------------------------------------------ inputs
+    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        if isinstance(rec, Estimate):
+            if self.cfg.stw_from is not None and rec.name == self.cfg.stw_from:
+                v = rec.values.get("stw")
+                if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
+                    self._stw = (rec.t, float(v))
+            return []
+        if rec.kind == "depth":
+            d = rec.values.get("depth")
+            if isinstance(d, (int, float)) and math.isfinite(d) and d >= 0.0:
+                self._depth = (rec.t, float(d))
+            else:
+                self.rejected["depth.bad_value"] += 1
+            return []
+        if rec.kind == "draft":
+            self._on_draft(rec.t, rec.values)
+        return []
+
+    def _on_draft(self, t: float, v: dict[str, Any]) -> None:
+        cfg = self.cfg
+        name = v.get("mark")
+        st = self.state.get(name) if isinstance(name, str) else None
+        if st is None:
+            self.rejected["draft.unknown_mark"] += 1
+            return
+        self.seen += 1
+        st.heard(t)
+        status = v.get("status", 0)
+        st.status = int(status) if isinstance(status, (int, float)) else 1
+        if st.status != 0:
+            st.out("status")
+            self.rejected[f"{name}.status"] += 1
+            return
+        z = v.get("draft")
+        if not isinstance(z, (int, float)) or not math.isfinite(z) or not cfg.min_draft <= z <= cfg.max_draft:
+            self.rejected[f"{name}.range"] += 1
+            st.range_in_row += 1
+            if st.range_in_row >= cfg.jump_after:
+                st.out("range")  # not a spike: the sensor reads nonsense
+            return
+        st.range_in_row = 0
+        z = float(z)
+        f = self.filters.get(name)
+        if f is not None and t < f.t - 1e-9:
+            self.rejected[f"{name}.late"] += 1
+            return
+        if f is None:
+            self._start(name, t, z)
+            return
+        f.predict(t)
+        noise = self.noise[name]
+        y, S, nis, applied = f.update(z, noise.var, cfg.gate)
+        if st.gated(not applied, cfg.jump_after):
+            st.out("jumped")
+            self._start(name, t, z)
+            return
+        if not applied:
+            self.rejected[f"{name}.gate"] += 1
+            return
+        if cfg.adapt_r:
+            noise.add(y, S)
+        st.settle(t)
+        self._retune(t)
+
+    def _start(self, name: str, t: float, z: float) -> None:
+        cfg = self.cfg
+        sigma = math.sqrt(self.noise[name].var) if name in self.noise else cfg.sensor_sigma
+        if cfg.mode == "paper":
+            self.filters[name] = PaperMark(z, t, cfg.omega_e, cfg.epsilon, cfg.q_v, cfg.q_m, sigma)
+        else:
+            self.filters[name] = WaveMark(self.bank, z, t, sigma, cfg.wave_sigma,
+                                          amplitude_window=cfg.amplitude_window)
+        self.noise.setdefault(name, MarkNoise(cfg.sensor_sigma))
+        self.state[name].settle(t)
+
+    def _retune(self, t: float) -> None:
+        """Once a second of data time, the bank's frequencies follow the sea."""
+        if self.cfg.mode == "paper":
+            return
+        if self._retuned is None:
+            self._retuned = t
+        elif t - self._retuned >= 1.0:
+            self.bank.retune(0.05)
+            self._retuned = t
+
+    # ------------------------------------------------------------------ output
+    def tick(self, t: float) -> list[Estimate]:
+        cfg = self.cfg
+        if not self.filters:
+            return []
+        marks: dict[str, dict[str, Any]] = {}
+        means: dict[str, float | None] = {}
+        for name in derived.MARKS:
+            st = self.state[name]
+            st.check_silence(t, cfg.silence)
+            f = self.filters.get(name)
+            if f is None:
+                marks[name] = {"draft": None, "mean": None, "rate": None, "amplitude": None, "std": None, "ok": False}
+                means[name] = None
+                continue
+            f.predict(t)  # the readings' time may be behind the tick's by a sample
+            marks[name] = {"draft": f.draft, "mean": f.mean, "rate": f.rate, "amplitude": f.amplitude,
+                           "std": math.sqrt(max(f.draft_var, 0.0)), "ok": st.ok}
+            means[name] = f.mean if st.ok else None
+        waves = {m: (marks[m]["draft"] - marks[m]["mean"], marks[m]["std"] ** 2) for m in derived.MARKS
+                 if means[m] is not None}
+        rigid = derived.rigid_waves(waves) if self.cfg.rigid_hull else None
+        if rigid is not None:
+            for m, (w, var) in rigid.items():
+                f = self.filters[m]
+                marks[m]["draft"] = f.mean + w
+                marks[m]["std"] = math.sqrt(max(var + f.mean_var, 0.0))
+        # a good mark that has moved from what the others say of it by 1.5 × `agree` for
+        # two seconds is out (a jump of 5σ the gate lets through a reading in ten of,
+        # which the filter then follows; a slow drift)
+        # (of a pair that disagree only one is wrong, and the geometry cannot say which:
+        # the one whose readings the gate has stopped more often lately is put out)
+        suspects = []
+        for name in derived.MARKS:
+            st = self.state[name]
+            if st.ok and means[name] is not None:
+                exp = derived.fill(name, {**means, name: None})
+                if st.drifting(t, None if exp is None else means[name] - exp, 1.5 * cfg.agree, DISAGREE_HOLD):
+                    suspects.append(name)
+        if suspects:
+            name = max(suspects, key=lambda m: self.state[m].gated_lately)
+            self.state[name].out("disagrees")
+            means[name] = None
+            marks[name]["ok"] = False
+        # marks settling back: do they agree with the others?
+        for name in derived.MARKS:
+            st, f = self.state[name], self.filters.get(name)
+            if f is None or st.reason != "settling":
+                continue
+            starting = not self._ever_ok
+            st.judge(t, START_SETTLE if starting else cfg.settle, cfg.agree, f.mean, derived.fill(name, means))
+            if st.ok:
+                means[name] = f.mean
+                marks[name]["ok"] = True
+        if any(self.state[m].ok for m in derived.MARKS):
+            self._ever_ok = True
+        filled = dict(means)
+        self._filled = []
+        for name in derived.MARKS:
+            if means[name] is None:
+                v = derived.fill(name, means)
+                if v is not None:
+                    filled[name] = v
+                    self._filled.append(name)
+        pos = derived.floating_position(filled, cfg.beam)
+        values: dict[str, Any] = {"marks": marks, **pos, "mode": cfg.mode}
+        values.update(self._squat_ukc(t, filled, pos))
+        values.update(self._cargo(t, pos["mean_draft"], means))
+        return [Estimate("draft", "draft", t, values)]
+
+    def _squat_ukc(self, t: float, filled: dict[str, float | None], pos: dict[str, float | None]) -> dict[str, Any]:
+        cfg = self.cfg
+        squat = None
+        if cfg.block_coefficient is not None and self._stw is not None and t - self._stw[0] <= cfg.stw_max_age:
+            squat = derived.barrass_squat(self._stw[1], cfg.block_coefficient, cfg.blockage)
+        ukc = None
+        st = derived.stations(filled)
+        if self._depth is not None and t - self._depth[0] <= cfg.depth_max_age and st["fore"] is not None \
+                and st["aft"] is not None:
+            if cfg.mark_spacing is not None:
+                at = derived.draft_at(cfg.transducer_x, st["fore"], st["aft"], cfg.mark_spacing)
+            else:
+                at = pos["mean_draft"] if pos["mean_draft"] is not None else 0.5 * (st["fore"] + st["aft"])
+            deepest = max(v for v in filled.values() if v is not None)
+            ukc = derived.under_keel(self._depth[1], at, cfg.transducer_height, deepest)
+        return {"squat": squat, "ukc": ukc}
+
+    def _cargo(self, t: float, mean_draft: float | None, means: dict[str, float | None]) -> dict[str, Any]:
+        cfg = self.cfg
+        none = {"displacement_change": None, "cargo_rate": None}
+        if mean_draft is None or (cfg.tpc is None and not cfg.hydrostatics):
+            return none
+        if self._first_mean_t is None:
+            self._first_mean_t = t
+        if self._reference is None:
+            if t - self._first_mean_t < cfg.reference_after:
+                return none
+            self._reference = (t, mean_draft)
+        got = derived.displacement(mean_draft, cfg.tpc, cfg.hydrostatics, self._reference[1])
+        if got is None:
+            return none
+        change, per_metre = got
+        rates = [self.filters[m].rate for m in derived.MARKS if means.get(m) is not None]
+        rate = sum(rates) / len(rates) if rates else None
+        return {"displacement_change": change, "cargo_rate": None if rate is None else per_metre * rate * 3600.0}
+
+    def health(self) -> dict[str, Any]:
+        marks = {}
+        for name, st in self.state.items():
+            n = self.noise.get(name)
+            marks[name] = {"ok": st.ok, "why": st.reason, "sigma": None if n is None else round(math.sqrt(n.var), 5),
+                           "disagree": st.disagree, **dict(st.counts)}
+        out: dict[str, Any] = {"mode": self.cfg.mode, "marks": marks, "filled": list(self._filled),
+                               "out": sorted(m for m, st in self.state.items() if not st.ok),
+                               "rejected": dict(sorted(self.rejected.items())), "seen": self.seen}
+        if self.cfg.mode != "paper" and self.filters:
+            f = next(iter(self.filters.values()))
+            if isinstance(f, WaveMark):
+                out["wave_period"] = round(f.peak_period(), 2)
+        out["depth"] = self._depth is not None
+        out["stw"] = self._stw is not None
+        return out

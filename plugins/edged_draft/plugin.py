@@ -1,0 +1,25 @@
+"""The `draft` estimator plugin (entry point `edged.estimators: draft`)."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from edged.plugin import EstimatorPlugin
+
+from .config import DraftConfig
+from .core import DraftCore
+
+
+class DraftEstimator(EstimatorPlugin):
+    Config = DraftConfig
+    kind: ClassVar[str | None] = "draft"
+    description: ClassVar[str] = (
+        "draft at six marks with the waves separated from the mean; trim, list, deflection, squat, "
+        "under-keel clearance and cargo (seed 003)"
+    )
+
+    def make_core(self) -> DraftCore:
+        return DraftCore(self.config)
+
+    def status(self) -> dict[str, Any]:
+        return {"mode": self.config.mode}

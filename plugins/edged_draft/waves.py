@@ -1,0 +1,212 @@
+"""One draft mark in real seas: the wave-free level and the wave motion on top of it.
+
+Why not the paper's model: it needs ω_e and ε, which a real sea does not announce, and
+one sine, where a sea is a spectrum (the encounter frequency moves with speed and
+heading too). Ship motion control has long filtered waves out of the low-frequency
+motion with a linear wave model driven by white noise (Fossen and Perez, "Kalman
+filtering for positioning and heading control of ships and offshore rigs", IEEE
+Control Systems 29(6), 2009): a second-order resonator per frequency band. A bank of
+them, log-spaced over the periods a ship meets, spans a spectrum; the filter shares the
+motion out among them, and the sum is the wave-induced draft.
+
+State x = [d, ḋ, d̈, c_1, s_1, …, c_K, s_K]:
+
+    level (the wave-free draft, with its rate and acceleration; cargo work and squat):
+        ḋ = ḋ,  d(ḋ)/dt = d̈,  d(d̈)/dt = w_j,         E[w_j²] = q_j (jerk density)
+        F = [[1, dt, dt²/2], [0, 1, dt], [0, 0, 1]]
+        Q = q_j [[dt⁵/20, dt⁴/8, dt³/6], [dt⁴/8, dt³/3, dt²/2], [dt³/6, dt²/2, dt]]
+    resonator k (frequency ω_k, damping ratio ζ), a damped rotation:
+        d/dt [c, s] = [[−ζω_k, −ω_k], [ω_k, −ζω_k]] [c, s] + w_k
+        F_k = e^(−ζω_k dt) [[cos ω_k dt, −sin ω_k dt], [sin ω_k dt, cos ω_k dt]]
+        Q_k = σ_k² (1 − e^(−2ζω_k dt)) I     (σ_k²: each component's stationary variance)
+    reading:
+        z = d + Σ_k c_k + v,   E[v²] = R      H = [1, 0, 0, 1, 0, 1, 0, …]
+
+Each resonator's σ_k is its share of the sea, learned: the mean of c_k² + s_k² over
+`window` seconds, halved, never below `floor`. Resonators where the sea has no energy
+then pass no sensor noise, and those at its peak follow it.
+
+Published: the instantaneous draft Hx, the mean d, its rate ḋ, the amplitude √2 × the
+RMS of the wave part Σ c_k over `amplitude_window` seconds (the amplitude of a sine).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class WaveBank:
+    """The shared parts of every mark's model: frequencies, H, F and Q per step size."""
+
+    def __init__(self, period_min: float, period_max: float, k: int, damping: float, q_jerk: float) -> None:
+        w_hi, w_lo = 2.0 * math.pi / period_min, 2.0 * math.pi / period_max
+        self.omega0 = np.exp(np.linspace(math.log(w_lo), math.log(w_hi), k)) if k > 1 else np.array([w_lo])
+        self.omega = self.omega0.copy()
+        # each resonator keeps to its own band (half-way to its neighbours, in log ω)
+        step = math.log(w_hi / w_lo) / (k - 1) if k > 1 else 0.1
+        self.omega_lo, self.omega_hi = self.omega0 * math.exp(-0.5 * step), self.omega0 * math.exp(0.5 * step)
+        self._err = np.zeros(k)  # Σ energy × (phase rate − ω) since the last retune
+        self._wsum = np.zeros(k)
+        self.k = k
+        self.zeta = damping
+        self.q_jerk = q_jerk
+        self.n = 3 + 2 * k
+        H = np.zeros(self.n)
+        H[0] = 1.0
+        H[3::2] = 1.0
+        self.H = H
+        self.idx = np.flatnonzero(H)
+        self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """F(dt) and the unit-variance part of the resonators' Q (1 − e^(−2ζω dt))."""
+        key = round(dt, 6)
+        got = self._cache.get(key)
+        if got is not None:
+            return got
+        F = np.zeros((self.n, self.n))
+        F[0, 0] = F[1, 1] = F[2, 2] = 1.0
+        F[0, 1] = F[1, 2] = dt
+        F[0, 2] = 0.5 * dt * dt
+        decay = np.exp(-self.zeta * self.omega * dt)
+        for i, (w, a) in enumerate(zip(self.omega, decay)):
+            j = 3 + 2 * i
+            c, s = a * math.cos(w * dt), a * math.sin(w * dt)
+            F[j, j], F[j, j + 1], F[j + 1, j], F[j + 1, j + 1] = c, -s, s, c
+        unit = 1.0 - np.exp(-2.0 * self.zeta * self.omega * dt)
+        if len(self._cache) > 64:
+            self._cache.clear()
+        self._cache[key] = (F, unit)
+        return F, unit
+
+    def observe_phase(self, energy: np.ndarray, rate_error: np.ndarray) -> None:
+        """A mark's resonators turned at ω + rate_error (rad/s) with this energy."""
+        self._err += energy * rate_error
+        self._wsum += energy
+
+    def retune(self, gain: float) -> None:
+        """Move each ω toward the phase rate its resonators showed, energy-weighted
+        over all marks (one sea under all of them), by `gain` of the difference."""
+        ok = self._wsum > 0.0
+        if not np.any(ok):
+            return
+        d = np.where(ok, self._err / np.where(ok, self._wsum, 1.0), 0.0)
+        self.omega = np.clip(self.omega + gain * d, self.omega_lo, self.omega_hi)
+        self._err[:] = 0.0
+        self._wsum[:] = 0.0
+        self._cache.clear()
+
+    def level_q(self, dt: float) -> np.ndarray:
+        q = self.q_jerk
+        d2, d3, d4, d5 = dt * dt, dt**3, dt**4, dt**5
+        return q * np.array([[d5 / 20.0, d4 / 8.0, d3 / 6.0], [d4 / 8.0, d3 / 3.0, d2 / 2.0], [d3 / 6.0, d2 / 2.0, dt]])
+
+
+class WaveMark:
+    def __init__(self, bank: WaveBank, z0: float, t0: float, sigma: float, wave_sigma: float,
+                 window: float = 120.0, floor: float = 0.005, amplitude_window: float = 60.0) -> None:
+        self.bank = bank
+        n = bank.n
+        self.t = t0
+        self.x = np.zeros(n)
+        self.x[0] = z0
+        P = np.zeros((n, n))
+        P[0, 0] = sigma * sigma + wave_sigma * wave_sigma * bank.k  # the first reading holds a wave
+        P[1, 1] = 1e-4  # 1 cm/s
+        P[2, 2] = 1e-6
+        self.var_k = np.full(bank.k, wave_sigma * wave_sigma)
+        P[3:, 3:] = np.diag(np.repeat(self.var_k, 2))
+        self.P = P
+        self.window = window
+        self.floor2 = floor * floor
+        self.amp_window = amplitude_window
+        self._wave2 = 0.0  # EWMA of the wave part squared
+        self._wave_n = 0
+        self._prev: tuple[float, np.ndarray, np.ndarray] | None = None
+
+    def predict(self, t: float) -> None:
+        dt = t - self.t
+        if dt <= 0.0:
+            return
+        b = self.bank
+        F, unit = b.transition(dt)
+        x = F @ self.x
+        P = F @ self.P @ F.T
+        P[:3, :3] += b.level_q(dt)
+        q = np.repeat(self.var_k * unit, 2)
+        P[np.arange(3, b.n), np.arange(3, b.n)] += q
+        self.x, self.P, self.t = x, P, t
+        # each resonator's share of the sea: the mean of its energy over the window
+        a = min(1.0, dt / self.window)
+        energy = 0.5 * (x[3::2] ** 2 + x[4::2] ** 2)
+        self.var_k = np.maximum((1.0 - a) * self.var_k + a * energy, self.floor2)
+        w = float(x[3::2].sum())
+        self._wave_n += 1
+        aw = max(min(1.0, dt / self.amp_window), 1.0 / self._wave_n)
+        self._wave2 = (1.0 - aw) * self._wave2 + aw * w * w
+
+    def update(self, z: float, R: float, gate: float | None) -> tuple[float, float, float, bool]:
+        """(y, S, NIS, applied) of one reading; not applied beyond the gate."""
+        idx = self.bank.idx
+        x, P = self.x, self.P
+        PHt = P[:, idx].sum(axis=1)
+        y = z - float(x[idx].sum())
+        S = float(PHt[idx].sum()) + R
+        nis = y * y / S
+        if gate is not None and nis > gate:
+            return y, S, nis, False
+        K = PHt / S
+        self.x = x + K * y
+        self.P = P - np.outer(K, PHt)
+        self._phase_rate()
+        return y, S, nis, True
+
+    def _phase_rate(self) -> None:
+        """The resonators' phase advance since the last update, beyond their ω."""
+        c, s = self.x[3::2], self.x[4::2]
+        prev = self._prev
+        self._prev = (self.t, c.copy(), s.copy())
+        if prev is None or self.t <= prev[0]:
+            return
+        dt = self.t - prev[0]
+        pc, ps = prev[1], prev[2]
+        # arg(z · conj(z_prev)) / dt, z = c + i s
+        dphi = np.arctan2(s * pc - c * ps, c * pc + s * ps)
+        energy = c * c + s * s
+        self.bank.observe_phase(energy, dphi / dt - self.bank.omega)
+
+    # -- what is published -----------------------------------------------------------
+    @property
+    def draft(self) -> float:
+        return float(self.x[self.bank.idx].sum())
+
+    @property
+    def draft_var(self) -> float:
+        idx = self.bank.idx
+        return float(self.P[np.ix_(idx, idx)].sum())
+
+    @property
+    def mean(self) -> float:
+        return float(self.x[0])
+
+    @property
+    def mean_var(self) -> float:
+        return float(self.P[0, 0])
+
+    @property
+    def rate(self) -> float:
+        return float(self.x[1])
+
+    @property
+    def rate_var(self) -> float:
+        return float(self.P[1, 1])
+
+    @property
+    def amplitude(self) -> float:
+        return math.sqrt(2.0 * self._wave2)
+
+    def peak_period(self) -> float:
+        """The period of the resonator holding most of the sea, s."""
+        return float(2.0 * math.pi / self.bank.omega[int(np.argmax(self.var_k))])

@@ -1,0 +1,136 @@
+"""The draft estimator's core on seeded synthetic hulls: what the chief officer reads,
+through faulty marks, silence and jumps."""
+
+from __future__ import annotations
+
+
+import numpy as np
+import pytest
+from draft_stream import MARKS, T0, Hull, run
+
+from edged.estimates import ESTIMATE_KINDS
+from edged.records import Estimate, Measurement
+from edged_draft.config import DraftConfig
+from edged_draft.core import DraftCore
+
+
+def _core(**kw) -> DraftCore:
+    return DraftCore(DraftConfig(type="draft", stw_from=None, **kw))
+
+
+def _rms(out, hull: Hull, field: str, after: float = 60.0) -> float:
+    t = np.array([e.t - T0 for e in out])
+    v = np.array([np.nan if e.values[field] is None else e.values[field] for e in out], dtype=float)
+    truth = {"mean_draft": np.mean([hull.mark_mean(m, t) for m in MARKS], axis=0),
+             "trim": np.full(len(t), hull.trim), "list": np.full(len(t), hull.list_)}[field]
+    k = t > after
+    return float(np.sqrt(np.nanmean((v - truth)[k] ** 2)))
+
+
+def test_the_estimate_has_every_field_of_the_contract_once_a_second():
+    hull = Hull(duration=40.0)
+    out = run(_core(), hull.measurements())
+    assert len(out) == 39
+    names = set(ESTIMATE_KINDS["draft"].field_names) - {"t", "kind", "stale", "age"}
+    assert names <= set(out[-1].values)
+    assert set(out[-1].values["marks"]) == set(MARKS)
+    assert set(out[-1].values["marks"]["fore_port"]) == {"draft", "mean", "rate", "amplitude", "std", "ok"}
+    assert all(m["ok"] for m in out[-1].values["marks"].values())
+
+
+def test_a_rigid_hull_in_a_regular_sea():
+    """Six marks σ 0.1 m at 100 Hz in a 12-s sea: mean draft, trim and list to a
+    centimetre, each mark's instantaneous draft five times better than its readings."""
+    hull = Hull(duration=240.0)
+    out = run(_core(), hull.measurements())
+    assert _rms(out, hull, "mean_draft") < 0.008
+    assert _rms(out, hull, "trim") < 0.01
+    assert _rms(out, hull, "list") < 0.01
+    t = np.array([e.t - T0 for e in out])
+    k = t > 60
+    for m in MARKS:
+        inst = np.array([e.values["marks"][m]["draft"] for e in out])
+        truth = hull.mark_mean(m, t) + hull.mark_wave(m, t)
+        assert np.sqrt(np.mean((inst - truth)[k] ** 2)) < 0.1 / 5, m
+
+
+def _fault(start: float, end: float, how: str):
+    def f(t: float, v: float, status: int):
+        if not start <= t < end:
+            return v, status
+        if how == "status":
+            return v + 3.0, 1  # a faulty sensor's value is anything
+        if how == "silent":
+            return None, status
+        return v + 0.5, status  # "jump"
+    return f
+
+
+@pytest.mark.parametrize("how", ["status", "silent"])
+def test_a_faulty_mark_is_left_out_filled_and_taken_back(how):
+    clean = Hull(duration=240.0)
+    hull = Hull(duration=240.0, faults={"fore_port": _fault(80.0, 140.0, how)})
+    base = run(_core(settle=20.0), clean.measurements())
+    core = _core(settle=20.0)
+    out = run(core, hull.measurements())
+    assert len(out) == len(base)  # publishing throughout
+    during = [e for e in out if T0 + 85 <= e.t < T0 + 140]
+    assert during and not any(e.values["marks"]["fore_port"]["ok"] for e in during)
+    bt = {e.t: e for e in base}
+    worst = {f: max(abs(e.values[f] - bt[e.t].values[f]) for e in during) for f in ("mean_draft", "trim", "list")}
+    assert worst["mean_draft"] < 0.025 and worst["trim"] < 0.10 and worst["list"] < 0.10
+    assert out[-1].values["marks"]["fore_port"]["ok"]  # back, having agreed
+    h = core.health()["marks"]["fore_port"]
+    assert h[f"out.{how}"] == 1 and h["back"] == 1
+
+
+def test_a_mark_that_jumped_stays_out_and_says_by_how_much():
+    """+0.5 m on one mark (5σ: the gate lets a reading in ten through, and the filter
+    follows them): out within seconds, for good, trim and list unharmed."""
+    hull = Hull(duration=200.0, faults={"aft_stbd": _fault(80.0, 1e9, "jump")})
+    core = _core(settle=20.0)
+    out = run(core, hull.measurements())
+    assert not out[-1].values["marks"]["aft_stbd"]["ok"]
+    h = core.health()
+    assert h["marks"]["aft_stbd"]["out.disagrees"] == 1
+    after = [e for e in out if e.t >= T0 + 80.0]
+    assert all(v["ok"] for e in after for m, v in e.values["marks"].items() if m != "aft_stbd")
+    out_ = [e for e in after if not e.values["marks"]["aft_stbd"]["ok"]]
+    assert out_[0].t - T0 < 90.0
+    for f, truth in (("trim", hull.trim), ("list", hull.list_)):
+        assert max(abs(e.values[f] - truth) for e in out_) < 0.10
+        assert max(abs(e.values[f] - truth) for e in after) < 0.15  # the seconds before it is found
+    assert h["marks"]["aft_stbd"]["disagree"] == pytest.approx(0.5, abs=0.05)
+    assert "aft_stbd" in h["filled"] and "aft_stbd" in h["out"]
+    assert abs(out[-1].values["trim"] - hull.trim) < 0.03
+
+
+def test_impossible_values_and_unknown_marks_are_counted_not_used():
+    hull = Hull(duration=30.0, faults={"mid_port": lambda t, v, s: (99.0 if abs(t - 20.0) < 0.005 else v, s)})
+    core = _core()
+    ms = list(hull.measurements())
+    ms.append(Measurement("draft", "can0.DraftMark", ms[-1].t, {"mark": "bow", "draft": 10.0, "status": 0}))
+    out = run(core, ms)
+    h = core.health()
+    assert h["rejected"]["mid_port.range"] == 1 and h["rejected"]["draft.unknown_mark"] == 1
+    assert out[-1].values["marks"]["mid_port"]["ok"]
+
+
+def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
+    hull = Hull(duration=200.0, mean=lambda t: 10.0 - 0.001 * t)
+    plain = run(_core(), hull.measurements())
+    assert all(plain[-1].values[f] is None for f in ("squat", "ukc", "displacement_change", "cargo_rate"))
+    core = DraftCore(DraftConfig(type="draft", block_coefficient=0.8, tpc=100.0, mark_spacing=200.0,
+                                 reference_after=30.0))
+    ms = list(hull.measurements())
+    extra = [Measurement("depth", "sounder", T0 + k, {"depth": 8.0}) for k in range(200)]
+    extra += [Estimate("stw", "stw", T0 + k, {"stw": 10 * 1852 / 3600}) for k in range(200)]
+    out = run(core, sorted(ms + extra, key=lambda r: r.t))
+    v = out[-1].values
+    assert v["squat"] == pytest.approx(0.8, rel=0.01)
+    # water 8 m below the keel at midships plus the draft there; the deepest mark aft
+    mid = hull.mean(np.array([199.0]))[0]
+    assert v["ukc"] == pytest.approx(8.0 + mid - (mid + 0.15 + 0.025), abs=0.02)
+    # 1 mm/s of discharge at 100 t/cm: −10 t/s, 36,000 t/h; from the reference at 30 s
+    assert v["displacement_change"] == pytest.approx(-100 * 100 * 0.001 * (199 - 30), rel=0.05)
+    assert v["cargo_rate"] == pytest.approx(-36_000, rel=0.2)
