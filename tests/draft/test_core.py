@@ -134,3 +134,16 @@ def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
     # 1 mm/s of discharge at 100 t/cm: −10 t/s, 36,000 t/h; from the reference at 30 s
     assert v["displacement_change"] == pytest.approx(-100 * 100 * 0.001 * (199 - 30), rel=0.05)
     assert v["cargo_rate"] == pytest.approx(-36_000, rel=0.2)
+
+
+def test_bad_depths_and_late_readings_are_counted_not_used():
+    hull = Hull(duration=20.0)
+    core = _core()
+    ms = list(hull.measurements())
+    ms.append(Measurement("depth", "sounder", ms[-1].t, {"depth": float("nan")}))
+    ms.append(Measurement("depth", "sounder", ms[-1].t, {"depth": -3.0}))
+    ms.append(Measurement("draft", "can0.DraftMark", ms[-1].t - 5.0, {"mark": "fore_port", "draft": 10.0, "status": 0}))
+    run(core, ms)
+    h = core.health()
+    assert h["rejected"]["depth.bad_value"] == 2 and h["rejected"]["fore_port.late"] == 1
+    assert h["depth"] is False
