@@ -10,8 +10,8 @@ turn rate is held: a ship on a constant rudder settles into a steady turn.
 The 1-σ ellipse of each predicted position comes from its 2 × 2 covariance: the axes
 are the square roots of its eigenvalues, the angle the major axis's direction from
 north, clockwise, in [0, π). Its size is then calibrated on the ship's own track
-(`calibrate.py`): the model's covariance is right in the mean, but the errors minutes
-ahead are heavy-tailed.
+(`calibrate.py`): minutes ahead the covariance is mostly the configured process noise
+propagated, a guess for any vessel.
 """
 
 from __future__ import annotations
