@@ -100,6 +100,8 @@ class DraftConfig(EstimatorConfig):
     #: The reference moment: seconds after the first published mean draft (the moment
     #: cargo work is measured from).
     reference_after: float = Field(60.0, ge=0.0, le=86_400.0)
+    #: Seconds of mean draft whose slope is the cargo rate.
+    cargo_window: float = Field(300.0, ge=10.0, le=86_400.0)
 
     @field_validator("hydrostatics")
     @classmethod
