@@ -73,6 +73,8 @@ class DraftCore:
                 v = rec.values.get("stw")
                 if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
                     self._stw = (rec.t, float(v))
+                elif v is not None:  # null: the STW estimator has none yet
+                    self.rejected["stw.bad_value"] += 1
             return []
         if rec.kind == "depth":
             d = rec.values.get("depth")

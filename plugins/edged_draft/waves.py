@@ -58,6 +58,7 @@ class WaveBank:
         H[3::2] = 1.0
         self.H = H
         self.idx = np.flatnonzero(H)
+        self.wave_diag = np.arange(3, self.n)  # the resonators' rows of P's diagonal
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
     def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -136,7 +137,7 @@ class WaveMark:
         P = F @ self.P @ F.T
         P[:3, :3] += b.level_q(dt)
         q = np.repeat(self.var_k * unit, 2)
-        P[np.arange(3, b.n), np.arange(3, b.n)] += q
+        P[b.wave_diag, b.wave_diag] += q
         self.x, self.P, self.t = x, P, t
         # each resonator's share of the sea: the mean of its energy over the window
         a = min(1.0, dt / self.window)

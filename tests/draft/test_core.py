@@ -148,14 +148,17 @@ def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
     assert v["cargo_rate"] == pytest.approx(-36_000, rel=0.2)
 
 
-def test_bad_depths_and_late_readings_are_counted_not_used():
+def test_bad_depths_stw_and_late_readings_are_counted_not_used():
     hull = Hull(duration=20.0)
-    core = _core()
+    core = DraftCore(DraftConfig(type="draft"))
     ms = list(hull.measurements())
     ms.append(Measurement("depth", "sounder", ms[-1].t, {"depth": float("nan")}))
     ms.append(Measurement("depth", "sounder", ms[-1].t, {"depth": -3.0}))
     ms.append(Measurement("draft", "can0.DraftMark", ms[-1].t - 5.0, {"mark": "fore_port", "draft": 10.0, "status": 0}))
+    ms.append(Estimate("stw", "stw", ms[-1].t + 5.0, {"stw": 400.0}))
+    ms.append(Estimate("stw", "stw", ms[-1].t, {"stw": None}))
     run(core, ms)
     h = core.health()
     assert h["rejected"]["depth.bad_value"] == 2 and h["rejected"]["fore_port.late"] == 1
-    assert h["depth"] is False
+    assert h["rejected"]["stw.bad_value"] == 1
+    assert h["depth"] is False and h["stw"] is False
