@@ -32,6 +32,9 @@ class DraftConfig(EstimatorConfig):
     max_draft: float = Field(30.0, gt=0.0, le=70.0)
     #: A mark silent this long (s of data time) is out until it speaks again.
     silence: float = Field(1.0, gt=0.0, le=3600.0)
+    #: A mark losing more than this share of its readings (over 10 s) is out until it
+    #: loses fewer (gaps in its rhythm, as the CAN counter would show).
+    max_lost: float = Field(0.2, gt=0.0, le=1.0)
     #: χ² (1 dof) gate on a reading's innovation; 15.1 is the 99.99 % point.
     gate: float = Field(15.1, gt=0.0)
     #: After this many gated readings in a row the mark has jumped: it is out, and its
@@ -47,6 +50,13 @@ class DraftConfig(EstimatorConfig):
     #: Spectral density of the level's jerk, m²/s⁵. Cargo work moves the draft by mm/s
     #: and changes that rate over minutes; squat by cm/s over tens of seconds.
     q_jerk: float = Field(1e-9, gt=0.0, le=1.0)
+    #: Squat: the level follows κ·STW² with κ learned (`waves.py`), from `stw_from`.
+    squat_from_speed: bool = True
+    #: κ's random walk, (m per (m/s)²)² per s: it may drift by half of a typical 0.03
+    #: in ten minutes (the depth and the channel change under a transiting ship).
+    q_squat: float = Field(1.5e-6, ge=0.0, le=1.0)
+    #: Seconds of STW estimates whose least-squares line is the speed the squat follows.
+    speed_window: float = Field(10.0, ge=0.0, le=600.0)
 
     # Adaptive mode: the wave bank.
     #: Shortest and longest encounter periods the bank spans, s.

@@ -51,7 +51,8 @@ class DraftCore:
     def __init__(self, cfg: DraftConfig) -> None:
         self.cfg = cfg
         self.inputs = frozenset({"draft", "depth"} | ({f"est/{cfg.stw_from}"} if cfg.stw_from else set()))
-        self.bank = WaveBank(cfg.wave_period_min, cfg.wave_period_max, cfg.resonators, cfg.damping, cfg.q_jerk)
+        self.bank = WaveBank(cfg.wave_period_min, cfg.wave_period_max, cfg.resonators, cfg.damping, cfg.q_jerk,
+                             cfg.q_squat if cfg.squat_from_speed else 0.0)
         self.filters: dict[str, WaveMark | PaperMark] = {}
         self.noise: dict[str, MarkNoise] = {}
         self.state = {m: MarkState(m) for m in derived.MARKS}
@@ -60,6 +61,8 @@ class DraftCore:
         self._retuned: float | None = None
         self._depth: tuple[float, float] | None = None  # t, depth below transducer
         self._stw: tuple[float, float] | None = None  # t, m/s
+        self._stw_recent: deque[tuple[float, float]] = deque()  # (t, m/s) over `speed_window`
+        self._stw_fit = (0.0, 0.0, 0.0)  # t, fitted STW there (m/s), its rate (m/s²)
         self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
         self._first_mean_t: float | None = None
         self._ever_ok = False
@@ -73,6 +76,7 @@ class DraftCore:
                 v = rec.values.get("stw")
                 if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
                     self._stw = (rec.t, float(v))
+                    self._fit_speed(rec.t, float(v))
                 elif v is not None:  # null: the STW estimator has none yet
                     self.rejected["stw.bad_value"] += 1
             return []
@@ -95,7 +99,9 @@ class DraftCore:
             self.rejected["draft.unknown_mark"] += 1
             return
         self.seen += 1
-        st.heard(t)
+        lost = st.heard(t)
+        if lost:
+            st.counts["lost"] += lost  # health: marks.<mark>.lost
         status = v.get("status", 0)
         st.status = int(status) if isinstance(status, (int, float)) else 1
         if st.status != 0:
@@ -118,7 +124,7 @@ class DraftCore:
         if f is None:
             self._start(name, t, z)
             return
-        f.predict(t)
+        self._predict(f, t)
         noise = self.noise[name]
         y, S, nis, applied = f.update(z, noise.var, cfg.gate)
         if st.gated(not applied, cfg.jump_after):
@@ -130,7 +136,10 @@ class DraftCore:
             return
         if cfg.adapt_r:
             noise.add(y, S)
-        st.settle(t)
+        if st.lost_share > cfg.max_lost:
+            st.out("gaps")
+        else:
+            st.settle(t)
         self._retune(t)
 
     def _start(self, name: str, t: float, z: float) -> None:
@@ -140,9 +149,53 @@ class DraftCore:
             self.filters[name] = PaperMark(z, t, cfg.omega_e, cfg.epsilon, cfg.q_v, cfg.q_m, sigma)
         else:
             self.filters[name] = WaveMark(self.bank, z, t, sigma, cfg.wave_sigma,
-                                          amplitude_window=cfg.amplitude_window)
+                                          amplitude_window=cfg.amplitude_window, squat=self._squat_prior())
+            self._predict(self.filters[name], t)  # its speed now: κ learns from the changes
         self.noise.setdefault(name, MarkNoise(cfg.sensor_sigma))
         self.state[name].settle(t)
+
+    def _squat_prior(self) -> tuple[float, float]:
+        """κ before the ship has shown hers: Barrass per (m/s)², with the configured
+        C_b (0.7 if none) and blockage; 1-σ as large as itself, at least 0.02."""
+        k = derived.barrass_squat(1.0, self.cfg.block_coefficient or 0.7, self.cfg.blockage)
+        return k, max(k, 0.02)
+
+    def _fit_speed(self, t: float, v: float) -> None:
+        """The STW's least-squares line over the last `speed_window` seconds.
+
+        Why not the latest estimate as it is: its second-to-second scatter (about 1 cm/s)
+        is, in V², as large as a fast squat ramp's own change; a filter fed noisy
+        increments takes them for too weak a squat (regression dilution) and lets the
+        level's rate carry the ramp instead. A line follows a ramp without lag."""
+        recent = self._stw_recent
+        if recent and t < recent[-1][0] - 1e-9:
+            return
+        recent.append((t, v))
+        while recent and recent[0][0] < t - self.cfg.speed_window:
+            recent.popleft()
+        if len(recent) < 3:
+            self._stw_fit = (t, v, 0.0)
+            return
+        ts = np.array([r[0] for r in recent]) - t
+        vs = np.array([r[1] for r in recent])
+        rate, at_t = np.polyfit(ts, vs, 1)
+        self._stw_fit = (t, float(at_t), float(rate))
+
+    def _speed(self, t: float) -> tuple[float | None, float]:
+        """STW squared at t (m²/s², None: none fresh) and its rate: the fitted line
+        carried forward, for at most two seconds."""
+        cfg = self.cfg
+        if not cfg.squat_from_speed or self._stw is None or t - self._stw[0] > cfg.stw_max_age:
+            return None, 0.0
+        t0, v0, rate = self._stw_fit
+        v = max(v0 + rate * min(max(t - t0, 0.0), 2.0), 0.0)
+        return v * v, 2.0 * v * rate
+
+    def _predict(self, f: WaveMark | PaperMark, t: float) -> None:
+        if isinstance(f, WaveMark):
+            f.predict(t, *self._speed(t))
+        else:
+            f.predict(t)
 
     def _retune(self, t: float) -> None:
         """Once a second of data time, the bank's frequencies follow the sea."""
@@ -169,7 +222,7 @@ class DraftCore:
                 marks[name] = {"draft": None, "mean": None, "rate": None, "amplitude": None, "std": None, "ok": False}
                 means[name] = None
                 continue
-            f.predict(t)  # the readings' time may be behind the tick's by a sample
+            self._predict(f, t)  # the readings' time may be behind the tick's by a sample
             marks[name] = {"draft": f.draft, "mean": f.mean, "rate": f.rate, "amplitude": f.amplitude,
                            "std": math.sqrt(max(f.draft_var, 0.0)), "ok": st.ok}
             means[name] = f.mean if st.ok else None

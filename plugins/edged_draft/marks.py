@@ -5,6 +5,9 @@ A mark is *out* of the derived values while any of these holds, and health names
 with the reason:
 - `status`: the sensor says fault (1) or out of water (2);
 - `silent`: no reading for `silence` seconds of data time;
+- `gaps`: more than `max_lost` of its readings lost over the last 10 s, seen as gaps in
+  its own rhythm (what the CAN counter says, from any source): a sensor or a bus
+  dropping frames is failing, and what comes through may be the worst of it;
 - `range`: `jump_after` readings in a row outside [min_draft, max_draft] (each one
   counted and not used: a single spike does not put the mark out);
 - `jumped`: most of its last `jump_after` readings beyond the filter's gate (in a row
@@ -21,7 +24,13 @@ with the reason:
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, deque
+
+#: Seconds over which a mark's lost readings are counted.
+LOST_WINDOW = 10.0
+#: Gaps in a row after which the sensor is taken to run at a slower rate (losses are
+#: irregular: a steady rhythm is the sensor's).
+RATE_CHANGE = 200
 
 
 class MarkState:
@@ -39,6 +48,10 @@ class MarkState:
         self.back_since: float | None = None
         self.disagree: float | None = None
         self.counts: Counter[str] = Counter()
+        self.interval: float | None = None  # the sensor's own period, s
+        self._lost: deque[tuple[float, int]] = deque()  # (t, readings lost before it), 10 s
+        self._lost_sum = 0
+        self._gaps_in_row = 0
 
     @property
     def ok(self) -> bool:
@@ -73,8 +86,34 @@ class MarkState:
             self._drift_since = t
         return t - self._drift_since >= settle
 
-    def heard(self, t: float) -> None:
+    def heard(self, t: float) -> int:
+        """A reading at t; the readings lost since the last one (gaps in its rhythm)."""
+        lost = 0
+        if self.last_t is not None and t > self.last_t:
+            dt = t - self.last_t
+            if self.interval is None:
+                self.interval = dt
+            elif dt < 1.5 * self.interval:
+                self.interval += 0.01 * (dt - self.interval)
+                self._gaps_in_row = 0
+            else:
+                lost = max(0, round(dt / self.interval) - 1)
+                self._gaps_in_row += 1
+                if self._gaps_in_row >= RATE_CHANGE:  # no reading on time for 200: a new rate
+                    self.interval, self._gaps_in_row, lost = dt, 0, 0
         self.last_t = t
+        q = self._lost
+        q.append((t, lost))
+        self._lost_sum += lost
+        while q and q[0][0] < t - LOST_WINDOW:
+            self._lost_sum -= q.popleft()[1]
+        return lost
+
+    @property
+    def lost_share(self) -> float:
+        """Of the readings due over the last 10 s, the share lost."""
+        n = len(self._lost)
+        return self._lost_sum / (self._lost_sum + n) if n else 0.0
 
     def check_silence(self, t: float, silence: float) -> None:
         if self.last_t is not None and t - self.last_t > silence and self.reason not in ("status",):

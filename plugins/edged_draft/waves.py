@@ -9,18 +9,26 @@ Control Systems 29(6), 2009): a second-order resonator per frequency band. A ban
 them, log-spaced over the periods a ship meets, spans a spectrum; the filter shares the
 motion out among them, and the sum is the wave-induced draft.
 
-State x = [d, ḋ, d̈, c_1, s_1, …, c_K, s_K]:
+State x = [d, ḋ, d̈, κ, c_1, s_1, …, c_K, s_K]:
 
     level (the wave-free draft, with its rate and acceleration; cargo work and squat):
         ḋ = ḋ,  d(ḋ)/dt = d̈,  d(d̈)/dt = w_j,         E[w_j²] = q_j (jerk density)
         F = [[1, dt, dt²/2], [0, 1, dt], [0, 0, 1]]
         Q = q_j [[dt⁵/20, dt⁴/8, dt³/6], [dt⁴/8, dt³/3, dt²/2], [dt³/6, dt²/2, dt]]
+    squat: the level sinks by κ·V² as the ship speeds up through the water (every
+    squat formula, Barrass's, ICORELS, Huuska's, is C·V² times a depth factor), κ its
+    coefficient for this ship in this water, learned, a slow random walk:
+        d ← d + κ·Δu,  u = V² the STW squared (m²/s²), Δu its change over the step
+        κ ← κ + w_κ,   E[w_κ²] = q_κ·dt
+    A level alone cannot tell a squat ramp of a few cm/s from the slow end of the sea
+    (tens of seconds either way); the speed can: it moves the level and not the waves.
+    Without a speed, Δu = 0 and κ sleeps.
     resonator k (frequency ω_k, damping ratio ζ), a damped rotation:
         d/dt [c, s] = [[−ζω_k, −ω_k], [ω_k, −ζω_k]] [c, s] + w_k
         F_k = e^(−ζω_k dt) [[cos ω_k dt, −sin ω_k dt], [sin ω_k dt, cos ω_k dt]]
         Q_k = σ_k² (1 − e^(−2ζω_k dt)) I     (σ_k²: each component's stationary variance)
     reading:
-        z = d + Σ_k c_k + v,   E[v²] = R      H = [1, 0, 0, 1, 0, 1, 0, …]
+        z = d + Σ_k c_k + v,   E[v²] = R      H = [1, 0, 0, 0, 1, 0, 1, 0, …]
 
 Each resonator's σ_k is its share of the sea, learned: the mean of c_k² + s_k² over
 `window` seconds, halved, never below `floor`. Resonators where the sea has no energy
@@ -40,7 +48,11 @@ import numpy as np
 class WaveBank:
     """The shared parts of every mark's model: frequencies, H, F and Q per step size."""
 
-    def __init__(self, period_min: float, period_max: float, k: int, damping: float, q_jerk: float) -> None:
+    #: The first resonator's row of the state (d, ḋ, d̈, κ before it).
+    W0 = 4
+
+    def __init__(self, period_min: float, period_max: float, k: int, damping: float, q_jerk: float,
+                 q_squat: float = 0.0) -> None:
         w_hi, w_lo = 2.0 * math.pi / period_min, 2.0 * math.pi / period_max
         self.omega0 = np.exp(np.linspace(math.log(w_lo), math.log(w_hi), k)) if k > 1 else np.array([w_lo])
         self.omega = self.omega0.copy()
@@ -52,13 +64,15 @@ class WaveBank:
         self.k = k
         self.zeta = damping
         self.q_jerk = q_jerk
-        self.n = 3 + 2 * k
+        self.q_squat = q_squat
+        w0 = self.W0
+        self.n = w0 + 2 * k
         H = np.zeros(self.n)
         H[0] = 1.0
-        H[3::2] = 1.0
+        H[w0::2] = 1.0
         self.H = H
         self.idx = np.flatnonzero(H)
-        self.wave_diag = np.arange(3, self.n)  # the resonators' rows of P's diagonal
+        self.wave_diag = np.arange(w0, self.n)  # the resonators' rows of P's diagonal
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
     def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -68,12 +82,12 @@ class WaveBank:
         if got is not None:
             return got
         F = np.zeros((self.n, self.n))
-        F[0, 0] = F[1, 1] = F[2, 2] = 1.0
+        F[0, 0] = F[1, 1] = F[2, 2] = F[3, 3] = 1.0
         F[0, 1] = F[1, 2] = dt
         F[0, 2] = 0.5 * dt * dt
         decay = np.exp(-self.zeta * self.omega * dt)
         for i, (w, a) in enumerate(zip(self.omega, decay)):
-            j = 3 + 2 * i
+            j = self.W0 + 2 * i
             c, s = a * math.cos(w * dt), a * math.sin(w * dt)
             F[j, j], F[j, j + 1], F[j + 1, j], F[j + 1, j + 1] = c, -s, s, c
         unit = 1.0 - np.exp(-2.0 * self.zeta * self.omega * dt)
@@ -107,7 +121,8 @@ class WaveBank:
 
 class WaveMark:
     def __init__(self, bank: WaveBank, z0: float, t0: float, sigma: float, wave_sigma: float,
-                 window: float = 120.0, floor: float = 0.005, amplitude_window: float = 60.0) -> None:
+                 window: float = 120.0, floor: float = 0.005, amplitude_window: float = 60.0,
+                 squat: tuple[float, float] = (0.0, 0.0)) -> None:
         self.bank = bank
         n = bank.n
         self.t = t0
@@ -117,8 +132,13 @@ class WaveMark:
         P[0, 0] = sigma * sigma + wave_sigma * wave_sigma * bank.k  # the first reading holds a wave
         P[1, 1] = 1e-4  # 1 cm/s
         P[2, 2] = 1e-6
+        self.x[3] = squat[0]  # κ's prior, m per (m/s)², and its 1-σ
+        P[3, 3] = squat[1] * squat[1]
         self.var_k = np.full(bank.k, wave_sigma * wave_sigma)
-        P[3:, 3:] = np.diag(np.repeat(self.var_k, 2))
+        w0 = bank.W0
+        P[w0:, w0:] = np.diag(np.repeat(self.var_k, 2))
+        self.u: float | None = None  # V² at self.t, m²/s² (None: no speed)
+        self.u_rate = 0.0
         self.P = P
         self.window = window
         self.floor2 = floor * floor
@@ -127,7 +147,8 @@ class WaveMark:
         self._wave_n = 0
         self._prev: tuple[float, np.ndarray, np.ndarray] | None = None
 
-    def predict(self, t: float) -> None:
+    def predict(self, t: float, u: float | None = None, u_rate: float = 0.0) -> None:
+        """To time t, where the STW squared is u (None: unknown) and changing at u_rate."""
         dt = t - self.t
         if dt <= 0.0:
             return
@@ -136,14 +157,23 @@ class WaveMark:
         x = F @ self.x
         P = F @ self.P @ F.T
         P[:3, :3] += b.level_q(dt)
+        P[3, 3] += b.q_squat * dt
         q = np.repeat(self.var_k * unit, 2)
         P[b.wave_diag, b.wave_diag] += q
+        if u is not None and self.u is not None and u != self.u:
+            # d ← d + Δu·κ: J = I + Δu e₀e₃ᵀ, P ← J P Jᵀ
+            du = u - self.u
+            x[0] += du * x[3]
+            P[0, :] += du * P[3, :]
+            P[:, 0] += du * P[:, 3]
+        self.u, self.u_rate = u, (u_rate if u is not None else 0.0)
         self.x, self.P, self.t = x, P, t
         # each resonator's share of the sea: the mean of its energy over the window
         a = min(1.0, dt / self.window)
-        energy = 0.5 * (x[3::2] ** 2 + x[4::2] ** 2)
+        w0 = b.W0
+        energy = 0.5 * (x[w0::2] ** 2 + x[w0 + 1::2] ** 2)
         self.var_k = np.maximum((1.0 - a) * self.var_k + a * energy, self.floor2)
-        w = float(x[3::2].sum())
+        w = float(x[w0::2].sum())
         self._wave_n += 1
         aw = max(min(1.0, dt / self.amp_window), 1.0 / self._wave_n)
         self._wave2 = (1.0 - aw) * self._wave2 + aw * w * w
@@ -166,7 +196,8 @@ class WaveMark:
 
     def _phase_rate(self) -> None:
         """The resonators' phase advance since the last update, beyond their ω."""
-        c, s = self.x[3::2], self.x[4::2]
+        w0 = self.bank.W0
+        c, s = self.x[w0::2], self.x[w0 + 1::2]
         prev = self._prev
         self._prev = (self.t, c.copy(), s.copy())
         if prev is None or self.t <= prev[0]:
@@ -198,11 +229,18 @@ class WaveMark:
 
     @property
     def rate(self) -> float:
-        return float(self.x[1])
+        """The level's rate: its own (cargo) and the squat's as the speed changes."""
+        return float(self.x[1] + self.x[3] * self.u_rate)
 
     @property
     def rate_var(self) -> float:
-        return float(self.P[1, 1])
+        r = self.u_rate
+        return float(self.P[1, 1] + 2.0 * r * self.P[1, 3] + r * r * self.P[3, 3])
+
+    @property
+    def squat_coefficient(self) -> float:
+        """κ, m per (m/s)² of STW: the squat this mark has shown, per speed squared."""
+        return float(self.x[3])
 
     @property
     def amplitude(self) -> float:

@@ -64,6 +64,8 @@ def _fault(start: float, end: float, how: str):
             return v + 3.0, 1  # a faulty sensor's value is anything
         if how == "silent":
             return None, status
+        if how == "gaps":  # four readings in seven lost on the way, irregularly
+            return (v, status) if (round(t * 100) * 2654435761) % 7 >= 4 else (None, status)
         return v + 0.5, status  # "jump"
     return f
 
@@ -73,7 +75,7 @@ def _clean_run() -> list:
     return run(_core(settle=20.0), Hull(duration=150.0).measurements())
 
 
-@pytest.mark.parametrize("how", ["status", "silent"])
+@pytest.mark.parametrize("how", ["status", "silent", "gaps"])
 def test_a_faulty_mark_is_left_out_filled_and_taken_back(how):
     hull = Hull(duration=150.0, faults={"fore_port": _fault(50.0, 90.0, how)})
     base = _clean_run()
@@ -88,6 +90,8 @@ def test_a_faulty_mark_is_left_out_filled_and_taken_back(how):
     assert out[-1].values["marks"]["fore_port"]["ok"]  # back, having agreed
     h = core.health()["marks"]["fore_port"]
     assert h[f"out.{how}"] == 1 and h["back"] == 1
+    if how == "gaps":
+        assert h["lost"] == pytest.approx(40 * 100 * 4 / 7, rel=0.02)
 
 
 def test_a_mark_that_jumped_stays_out_and_says_by_how_much():
@@ -162,3 +166,25 @@ def test_bad_depths_stw_and_late_readings_are_counted_not_used():
     assert h["rejected"]["depth.bad_value"] == 2 and h["rejected"]["fore_port.late"] == 1
     assert h["rejected"]["stw.bad_value"] == 1
     assert h["depth"] is False and h["stw"] is False
+
+
+def _speed(t):
+    """10 kn for 40 s, then up to 15 kn in a minute (m/s)."""
+    return 5.144 + 2.572 * np.clip((np.asarray(t) - 40.0) / 60.0, 0.0, 1.0)
+
+
+def test_the_mean_draft_follows_a_squat_ramp_through_the_speed():
+    # 5 cm of sinkage per (m/s)²: 1.3 m at 10 kn, 3.0 m at 15 kn; a sea of 15 s at 25 Hz
+    hull = Hull(duration=160.0, rate=25.0, period=15.0, mean=lambda t: 10.0 + 0.05 * _speed(t) ** 2)
+    rng = np.random.default_rng(3)
+    # the STW estimate: 0.2 m/s high, scattered by 5 mm/s
+    stw = [Estimate("stw", "stw", T0 + k, {"stw": float(_speed(k)) + 0.2 + 0.005 * rng.standard_normal()})
+           for k in range(160)]
+    ms = sorted(list(hull.measurements()) + stw, key=lambda r: r.t)
+    cfg = {"block_coefficient": 0.8, "blockage": 0.25}
+    with_speed = _rms(run(DraftCore(DraftConfig(type="draft", **cfg)), ms), hull, "mean_draft")
+    without = _rms(run(DraftCore(DraftConfig(type="draft", squat_from_speed=False, **cfg)), ms), hull,
+                   "mean_draft")
+    print(f"mean draft RMSE through the ramp: {with_speed * 100:.2f} cm with the speed, {without * 100:.2f} without")
+    assert with_speed < 0.25 * without  # measured: 2.0 cm against 15.7
+    assert with_speed < 0.03
