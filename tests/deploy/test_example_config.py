@@ -40,3 +40,16 @@ def test_every_commented_gateway_example_is_a_valid_input(tmp_path, capsys):
     capsys.readouterr()
     # one of each gateway kind the issue names: YDWG, Actisense (BST, ASCII, plain), iKonvert, SeaSmart
     assert {"ydwg_raw", "actisense_bst", "actisense_ascii", "actisense_plain", "ikonvert", "pcdin"} <= gateways
+
+
+def test_every_commented_draft_setting_is_valid(tmp_path, capsys):
+    """The example's draft keys, all uncommented, are what the estimator accepts."""
+    text = (DEPLOY / "edged.toml").read_text()
+    section = text.split("[estimators.draft]\n", 1)[1].split("\n\n", 1)[0]
+    keys = [ln[2:].split("#")[0].rstrip() for ln in section.splitlines()
+            if ln.startswith("# ") and " = " in ln.split("#")[1] and ln[2].isalpha()]
+    assert len(keys) >= 20
+    path = tmp_path / "draft.toml"
+    path.write_text('[estimators.stw]\ntype = "stw"\n\n[estimators.draft]\ntype = "draft"\n' + "\n".join(keys) + "\n")
+    assert main(["check-config", str(path)]) == 0, keys
+    assert "estimators (stw, draft)" in capsys.readouterr().out
