@@ -132,6 +132,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="DIR")
     p.add_argument("--duration", type=float, default=None, metavar="S")
     p.add_argument("--seed", type=int, default=0, metavar="N")
+    p.add_argument("--waves", metavar="SPEC", default=None,
+                   help="the sea instead of the scenario's: regular:AMPLITUDE,PERIOD[,FROM_DEG] or "
+                        "jonswap:HS,TP[,FROM_DEG] (m, s, degrees true; FROM_DEG defaults to the scenario's)")
 
     p = sub.add_parser("inspect", help="channels, counts, rates, time span, gaps of a recording")
     p.add_argument("file", metavar="FILE.mcap")

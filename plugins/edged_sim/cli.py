@@ -1,15 +1,21 @@
-"""`edged sim SCENARIO --out DIR [--duration S] [--seed N]` (DESIGN §4)."""
+"""`edged sim SCENARIO --out DIR [--duration S] [--seed N] [--waves SPEC]` (DESIGN §4).
+
+`--waves` replaces the scenario's sea (`waves.parse_waves`); meta.json records the sea
+that was used and the option as given (`overrides`).
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
 
 from .run import Simulation
 from .scenarios import SCENARIOS
+from .waves import parse_waves
 from .writers import write_run
 
 
@@ -23,8 +29,18 @@ def main(args: argparse.Namespace) -> int:
     if duration is not None and not duration > 0:
         print(f"edged sim: --duration must be positive, got {duration}", file=sys.stderr)
         return EXIT_USAGE
+    overrides: dict[str, str] = {}
+    waves = getattr(args, "waves", None)
+    if waves is not None:
+        try:
+            sea = parse_waves(waves, getattr(scenario.waves, "from_deg", 0.0))
+        except ValueError as exc:
+            print(f"edged sim: --waves: {exc}", file=sys.stderr)
+            return EXIT_USAGE
+        scenario = replace(scenario, waves=sea)
+        overrides["waves"] = waves
     out = Path(args.out)
-    sim = Simulation(scenario, seed=int(getattr(args, "seed", 0) or 0), duration=duration)
+    sim = Simulation(scenario, seed=int(getattr(args, "seed", 0) or 0), duration=duration, overrides=overrides)
     try:
         meta = write_run(sim, out)
     except OSError as exc:

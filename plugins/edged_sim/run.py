@@ -34,8 +34,10 @@ class Chunk:
 class Simulation:
     """One run of a scenario with one seed."""
 
-    def __init__(self, scenario: Scenario, seed: int = 0, duration: float | None = None, ideal: bool = False) -> None:
+    def __init__(self, scenario: Scenario, seed: int = 0, duration: float | None = None, ideal: bool = False,
+                 overrides: dict[str, str] | None = None) -> None:
         self.scenario = scenario.without_errors() if ideal else scenario
+        self.overrides = dict(overrides or {})  #: command-line options that changed the scenario, as given
         self.seed = seed
         self.duration = scenario.duration_s if duration is None else float(duration)
         sc = self.scenario
@@ -123,6 +125,8 @@ class Simulation:
             "origin": {"lat": sc.origin[0], "lon": sc.origin[1]},
             "ship": asdict(sc.ship),
             "integration_step_s": sc.dt,
+            "heading_deg": sc.heading_deg,
+            "overrides": dict(self.overrides),
             "helm": {"type": type(sc.helm).__name__, **asdict(sc.helm), "fired": self.helm.fired},
             "current": asdict(sc.current),
             "water": asdict(sc.water),

@@ -146,3 +146,41 @@ def response(
         roll_rate=(iw * roll_c).real.sum(axis=1),
         heave_acc=(iw * iw * heave_c).real.sum(axis=1),
     )
+
+
+#: `edged sim --waves SPEC` forms, for messages.
+WAVES_SPEC = "regular:AMPLITUDE,PERIOD[,FROM_DEG] or jonswap:HS,TP[,FROM_DEG]"
+
+
+def parse_waves(spec: str, default_from_deg: float = 0.0) -> RegularWaves | JonswapWaves:
+    """A sea state from `regular:A,T[,FROM]` or `jonswap:HS,TP[,FROM]` (m, s, degrees true).
+
+    A regular sea is given by its amplitude, as `RegularWaves` and the scenarios'
+    descriptions have it ("0.4 m / 12 s" is an amplitude of 0.4 m); an irregular one by
+    its significant height (Hs = 4·√m0; a regular sea of amplitude a has Hs = 2√2·a).
+    FROM defaults to `default_from_deg` (the scenario's). Raises ValueError with a
+    message saying what is wrong.
+    """
+    kind, sep, rest = spec.strip().partition(":")
+    kind = kind.strip().lower()
+    if not sep or kind not in ("regular", "jonswap"):
+        raise ValueError(f"{spec!r} is not {WAVES_SPEC}")
+    parts = [p.strip() for p in rest.split(",")]
+    if len(parts) not in (2, 3):
+        raise ValueError(f"{spec!r}: two or three numbers after {kind}: ({WAVES_SPEC})")
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"{spec!r}: not numbers: {rest!r} ({WAVES_SPEC})") from None
+    if not all(np.isfinite(nums)):
+        raise ValueError(f"{spec!r}: the numbers must be finite")
+    height, period = nums[0], nums[1]
+    from_deg = nums[2] % 360.0 if len(nums) == 3 else float(default_from_deg)
+    if not 0.0 <= height <= 30.0:
+        raise ValueError(f"{spec!r}: the {'amplitude' if kind == 'regular' else 'significant height'} "
+                         f"must be within 0..30 m, got {height:g}")
+    if not 1.0 <= period <= 60.0:
+        raise ValueError(f"{spec!r}: the period must be within 1..60 s, got {period:g}")
+    if kind == "regular":
+        return RegularWaves(height, period, from_deg=from_deg)
+    return JonswapWaves(height, period, from_deg=from_deg)
