@@ -47,6 +47,7 @@ class Simulation:
         env_rng = np.random.default_rng([seed, 0])
         self.truth = TruthModel(sc.ship, sc.current, sc.water, sc.loading, sc.waves.components(env_rng), self.frame, sc.start_epoch)
         self.sensor_rngs = [s.rng(seed) for s in sc.sensors]
+        self.spell_rngs = [s.spell_rng(seed) if s.dropout_spells else None for s in sc.sensors]
         self.outputs = [[output(k) for k in s.outputs] for s in sc.sensors]
         self.fault_rng = np.random.default_rng([seed, 1])
         self.injected: Counter = Counter()  #: damage by reason
@@ -69,6 +70,7 @@ class Simulation:
         cache: dict[tuple[int, int], dict[str, np.ndarray]] = {}
         epoch_ms = sc.start_epoch * 1000
         for si, (spec, rng, outs) in enumerate(zip(sc.sensors, self.sensor_rngs, self.outputs)):
+            spell_rng = self.spell_rngs[si]
             t_ms = spec.sample_times_ms(start_ms, end_ms)
             if t_ms.size == 0:
                 continue
@@ -76,7 +78,7 @@ class Simulation:
             if key not in cache:
                 cache[key] = self.truth.sample(t_ms / 1000.0)
             values = measure(spec, cache[key], rng, self.frame)
-            keep = kept(spec, t_ms / 1000.0, rng)
+            keep = kept(spec, t_ms / 1000.0, rng, spell_rng)
             self.dropped[spec.name] += int((~keep).sum())
             idx = t_ms // spec.period_ms
             values = {k: v[keep] for k, v in values.items()}
@@ -138,6 +140,7 @@ class Simulation:
                 "spec": asdict(sc.faults),
                 "injected": dict(sorted(self.injected.items())),
                 "dropouts": {k: v for k, v in sorted(self.dropped.items()) if v},
+                "windows": [w for s in sc.sensors for w in s.windows()],
                 "position_jumps": [
                     {"sensor": s.name, "start_s": a, "end_s": b, "north_m": n, "east_m": e}
                     for s in sc.sensors for a, b, n, e in s.jumps

@@ -7,6 +7,10 @@ Each follows a reference scenario of ESTIMATORS.md and the paper behind it:
   090°, 10° port at 300°, midships at 230°, slow down at 210° (pitch 0.78 → 0.33).
 - `manoeuvre-zigzag-north`: a 20°/20° zigzag about north, so heading crosses 0/360°.
 - `draft-harbour` (seed 003 §7.3): alongside, discharging 14 → 10 m in 0.4 m / 12 s waves.
+- `draft-faulty-mark`: draft-harbour's first 20 minutes with the fore_port mark (CAN
+  0x310) failing five ways, 120 s each: silent, reading 1 m high, status "fault",
+  reading 45 m, losing half its frames (gaps in its counter). The other sensors read
+  what they read in draft-harbour with the same seed.
 - `draft-squat` (seed 003 §7.4): C_b 0.8 in a channel (blockage 0.25, so K = 2 and the
   paper's 1.6 m of squat at 10 kn), 10 kn for 50 s then up to 15 kn in 2 minutes,
   in 0.4 m / 10 s waves.
@@ -61,6 +65,40 @@ def _faulty(s: SensorSpec) -> SensorSpec:
     extra = _FAULTY.get(s.name, {"dropout": 0.005} if s.model == "draft" else {})
     return replace(s, **extra)
 
+#: draft-faulty-mark's fault windows on the fore_port mark: 150 s to settle first, then
+#: 120 s of each fault with 90 s between them (a mark back from a fault is believed
+#: again after `settle` = 60 s of agreeing with the others).
+FAULT_WINDOWS = {
+    "silence": (150.0, 270.0),
+    "offset": (360.0, 480.0),
+    "status": (570.0, 690.0),
+    "range": (780.0, 900.0),
+    "gaps": (990.0, 1110.0),
+}
+
+
+def _faulty_mark(s: SensorSpec) -> SensorSpec:
+    if s.mark != "fore_port":
+        return s
+    w = FAULT_WINDOWS
+    return replace(
+        s,
+        outages=(w["silence"],),
+        offsets=(w["offset"] + ("draft", 1.0),),
+        forced=(w["status"] + ("status", 1.0), w["range"] + ("draft", 45.0)),
+        dropout_spells=(w["gaps"] + (0.5,),),
+    )
+
+
+_HARBOUR = Scenario(
+    "draft-harbour", "Alongside, discharging 14 → 10 m, 0.4 m / 12 s waves (seed 003 §7.3)", 1800.0,
+    BULKER, Manoeuvre(0.0), 0.0,
+    draft_marks() + imu(50.0) + gyro(10.0) + (echo_sounder(14.0),),
+    waves=RegularWaves(0.4, 12.0, from_deg=150.0), water=Water(depth=20.0),
+    loading=Loading(draft_knots=((0.0, 14.0), (60.0, 14.0), (1740.0, 10.0)), trim=0.3, list=0.05,
+                    deflection=0.04, roll_period=16.0),
+)
+
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
@@ -84,13 +122,12 @@ SCENARIOS: dict[str, Scenario] = {
             "manoeuvre-zigzag-north", "20°/20° zigzag about north: heading crosses 0/360°", 900.0,
             CARGO, ZigZag(11.4, 0.0), 0.0, _MANOEUVRE_SENSORS, water=Water(depth=80.0),
         ),
-        Scenario(
-            "draft-harbour", "Alongside, discharging 14 → 10 m, 0.4 m / 12 s waves (seed 003 §7.3)", 1800.0,
-            BULKER, Manoeuvre(0.0), 0.0,
-            draft_marks() + imu(50.0) + gyro(10.0) + (echo_sounder(14.0),),
-            waves=RegularWaves(0.4, 12.0, from_deg=150.0), water=Water(depth=20.0),
-            loading=Loading(draft_knots=((0.0, 14.0), (60.0, 14.0), (1740.0, 10.0)), trim=0.3, list=0.05,
-                            deflection=0.04, roll_period=16.0),
+        _HARBOUR,
+        replace(
+            _HARBOUR, name="draft-faulty-mark", duration_s=1200.0,
+            description="draft-harbour's first 20 min; the fore_port mark silent, +1 m, status fault, 45 m, "
+                        "losing half its frames, 120 s each",
+            sensors=tuple(_faulty_mark(s) for s in _HARBOUR.sensors),
         ),
         Scenario(
             "draft-squat", "Channel transit, C_b 0.8, 10 → 15 kn in 2 min (seed 003 §7.4)", 300.0,

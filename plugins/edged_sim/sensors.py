@@ -1,7 +1,9 @@
 """Sensor models: what an instrument reports, given the truth at its sampling instants.
 
 A sensor is data (`SensorSpec`): a measurement model, a rate, its errors (white noise,
-bias, resolution, lost samples, outages, position jumps) and the formats it sends.
+bias, resolution, lost samples, outages, position jumps; and faults over windows of
+time: an offset added to a field, a field forced to a value such as a status code or
+an impossible reading, spells of lost samples) and the formats it sends.
 The measurement models are a table keyed by name; each turns truth samples into the
 values the formats encode, in SI units. Every sensor draws from its own random stream
 (seeded by the run's seed and the sensor's name), so adding a sensor to a scenario
@@ -39,6 +41,15 @@ class SensorSpec:
     talker: str = "GP"  #: NMEA 0183 talker
     address: int = 0  #: NMEA 2000 source address
     mark: str = ""  #: draft sensors: which mark
+    #: Offsets over windows: (start s, end s, field, value added), e.g. a sensor jumping by 1 m.
+    offsets: tuple[tuple[float, float, str, float], ...] = ()
+    #: A field forced to a value over windows: (start s, end s, field, value), e.g. a
+    #: status code that is not ok, or a reading outside the physical range.
+    forced: tuple[tuple[float, float, str, float], ...] = ()
+    #: Spells of lost samples: (start s, end s, probability that a sample is lost). They
+    #: draw from their own stream (`spell_rng`), so the sensor's noise is that of the
+    #: same sensor without them.
+    dropout_spells: tuple[tuple[float, float, float], ...] = ()
 
     @property
     def period_ms(self) -> int:
@@ -54,11 +65,28 @@ class SensorSpec:
     def rng(self, seed: int) -> np.random.Generator:
         return np.random.default_rng([seed, zlib.crc32(self.name.encode())])
 
+    def spell_rng(self, seed: int) -> np.random.Generator:
+        """The stream the dropout spells draw from (apart from `rng`)."""
+        return np.random.default_rng([seed, zlib.crc32(self.name.encode()), 1])
+
+    def windows(self) -> list[dict]:
+        """The windows of time with faults (outages, offsets, forced values, dropout
+        spells), for meta.json, in time order."""
+        out = [{"sensor": self.name, "kind": "outage", "start_s": a, "end_s": b} for a, b in self.outages]
+        out += [{"sensor": self.name, "kind": "offset", "start_s": a, "end_s": b, "field": f, "value": v}
+                for a, b, f, v in self.offsets]
+        out += [{"sensor": self.name, "kind": "forced", "start_s": a, "end_s": b, "field": f, "value": v}
+                for a, b, f, v in self.forced]
+        out += [{"sensor": self.name, "kind": "dropout", "start_s": a, "end_s": b, "probability": p}
+                for a, b, p in self.dropout_spells]
+        return sorted(out, key=lambda w: (w["start_s"], w["end_s"]))
+
     def without_errors(self) -> "SensorSpec":
         """The same instrument, perfect: for tests that compare a log with the truth."""
         from dataclasses import replace
 
-        return replace(self, noise={}, bias={}, quantum={}, dropout=0.0, outages=(), jumps=())
+        return replace(self, noise={}, bias={}, quantum={}, dropout=0.0, outages=(), jumps=(), offsets=(), forced=(),
+                       dropout_spells=())
 
 
 Truth = Mapping[str, np.ndarray]
@@ -169,15 +197,40 @@ MODELS: dict[str, Model] = {
 
 
 def measure(spec: SensorSpec, truth: Truth, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
-    """The values a sensor reports at the instants `truth` was sampled at."""
-    return MODELS[spec.model](truth, spec, rng, frame)
+    """The values a sensor reports at the instants `truth` was sampled at, with its
+    windowed offsets and forced values (which draw nothing from `rng`)."""
+    values = MODELS[spec.model](truth, spec, rng, frame)
+    if spec.offsets or spec.forced:
+        t = np.asarray(truth["t_rel"])
+        for start, end, name, value in spec.offsets:
+            inside = (t >= start) & (t < end)
+            if inside.any():
+                x = _field(values, spec, name) + value * inside
+                values[name] = wrap_2pi(x) if name in ANGLES else x
+        for start, end, name, value in spec.forced:
+            inside = (t >= start) & (t < end)
+            if inside.any():
+                values[name] = np.where(inside, value, _field(values, spec, name))
+    return values
 
 
-def kept(spec: SensorSpec, t_rel: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Mask of samples that are not lost (random dropouts and outages)."""
+def _field(values: dict[str, np.ndarray], spec: SensorSpec, name: str) -> np.ndarray:
+    if name not in values:
+        raise KeyError(f"sensor {spec.name}: model {spec.model!r} has no field {name!r} (it has {sorted(values)})")
+    return np.asarray(values[name], dtype=float)
+
+
+def kept(spec: SensorSpec, t_rel: np.ndarray, rng: np.random.Generator,
+         spell_rng: np.random.Generator | None = None) -> np.ndarray:
+    """Mask of samples that are not lost (random dropouts, outages and, drawn from
+    `spell_rng`, the dropout spells)."""
     keep = np.ones(t_rel.shape, dtype=bool)
     if spec.dropout > 0.0:
         keep &= rng.uniform(size=t_rel.shape) >= spec.dropout
     for start, end in spec.outages:
         keep &= ~((t_rel >= start) & (t_rel < end))
+    if spec.dropout_spells:
+        u = (spell_rng if spell_rng is not None else rng).uniform(size=t_rel.shape)
+        for start, end, p in spec.dropout_spells:
+            keep &= ~((t_rel >= start) & (t_rel < end) & (u < p))
     return keep
