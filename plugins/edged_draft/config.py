@@ -48,15 +48,20 @@ class DraftConfig(EstimatorConfig):
 
     # The level (wave-free draft): a random walk on its acceleration.
     #: Spectral density of the level's jerk, m²/s⁵. Cargo work moves the draft by mm/s
-    #: and changes that rate over minutes; squat by cm/s over tens of seconds.
-    q_jerk: float = Field(1e-9, gt=0.0, le=1.0)
+    #: and changes that rate over minutes (squat, faster, follows the speed instead).
+    #: Its bandwidth, (q_jerk/(R·dt))^(1/6), is 0.1 rad/s for σ 0.1 m at 100 Hz: a
+    #: minute's period, well below the seas' and above any cargo plan's.
+    q_jerk: float = Field(1e-10, gt=0.0, le=1.0)
     #: Squat: the level follows κ·STW² with κ learned (`waves.py`), from `stw_from`.
     squat_from_speed: bool = True
-    #: κ's random walk, (m per (m/s)²)² per s: it may drift by half of a typical 0.03
-    #: in ten minutes (the depth and the channel change under a transiting ship).
-    q_squat: float = Field(1.5e-6, ge=0.0, le=1.0)
+    #: κ's random walk, (m per (m/s)²)² per s: it may drift by 0.008 (a quarter of a
+    #: typical 0.03) in ten minutes, as the depth and the channel change under a
+    #: transiting ship; faster, and the STW estimate's scatter wears κ down.
+    q_squat: float = Field(1e-7, ge=0.0, le=1.0)
     #: Seconds of STW estimates whose least-squares line is the speed the squat follows.
-    speed_window: float = Field(10.0, ge=0.0, le=600.0)
+    #: Longer smooths the scatter, but lags where the speed turns (a line through a
+    #: kink): 5 s holds both to about a centimetre of draft at 15 kn.
+    speed_window: float = Field(5.0, ge=0.0, le=600.0)
 
     # Adaptive mode: the wave bank.
     #: Shortest and longest encounter periods the bank spans, s.

@@ -125,7 +125,7 @@ class WaveMark:
                  squat: tuple[float, float] = (0.0, 0.0)) -> None:
         self.bank = bank
         n = bank.n
-        self.t = t0
+        self.t = self.t0 = t0
         self.x = np.zeros(n)
         self.x[0] = z0
         P = np.zeros((n, n))
@@ -168,8 +168,9 @@ class WaveMark:
             P[:, 0] += du * P[:, 3]
         self.u, self.u_rate = u, (u_rate if u is not None else 0.0)
         self.x, self.P, self.t = x, P, t
-        # each resonator's share of the sea: the mean of its energy over the window
-        a = min(1.0, dt / self.window)
+        # each resonator's share of the sea: the mean of its energy over the window (from
+        # the start, the mean since then: the prior's 0.3 m would take minutes to fade)
+        a = min(1.0, dt / min(self.window, max(t - self.t0, dt)))
         w0 = b.W0
         energy = 0.5 * (x[w0::2] ** 2 + x[w0 + 1::2] ** 2)
         self.var_k = np.maximum((1.0 - a) * self.var_k + a * energy, self.floor2)
