@@ -47,6 +47,19 @@ class MarkNoise:
         self.n += 1
 
 
+def _slope_std(ts: np.ndarray, res: np.ndarray) -> float:
+    """Standard error of a least-squares slope whose residuals are correlated (a
+    filter's output once a second is): the samples count as n(1 − ρ)/(1 + ρ), ρ the
+    residuals' lag-1 autocorrelation."""
+    n = len(ts)
+    var = float(np.dot(res, res)) / max(n - 2, 1)
+    rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res)) if np.dot(res, res) > 0 else 0.0
+    rho = min(max(rho, 0.0), 0.99)
+    n_eff = max(n * (1.0 - rho) / (1.0 + rho), 3.0)
+    sxx = float(np.sum((ts - ts.mean()) ** 2))
+    return math.sqrt(var / sxx * n / n_eff) if sxx > 0 else float("inf")
+
+
 class DraftCore:
     def __init__(self, cfg: DraftConfig) -> None:
         self.cfg = cfg
@@ -64,6 +77,7 @@ class DraftCore:
         self._stw_recent: deque[tuple[float, float]] = deque()  # (t, m/s) over `speed_window`
         self._stw_fit = (0.0, 0.0, 0.0)  # t, fitted STW there (m/s), its rate (m/s²)
         self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
+        self._reference_std = 0.0
         self._first_mean_t: float | None = None
         self._ever_ok = False
         self._filled: list[str] = []
@@ -272,9 +286,11 @@ class DraftCore:
                     filled[name] = v
                     self._filled.append(name)
         pos = derived.floating_position(filled, cfg.beam)
-        values: dict[str, Any] = {"marks": marks, **pos, "mode": cfg.mode}
+        mean_std = self._mean_draft_std(means) if pos["mean_draft"] is not None else None
+        values: dict[str, Any] = {"marks": marks, **pos, "mean_draft_std": mean_std, "filled": list(self._filled),
+                                  "mode": cfg.mode}
         values.update(self._squat_ukc(t, filled, pos))
-        values.update(self._cargo(t, pos["mean_draft"], means))
+        values.update(self._cargo(t, pos["mean_draft"], mean_std))
         return [Estimate("draft", "draft", t, values)]
 
     def _squat_ukc(self, t: float, filled: dict[str, float | None], pos: dict[str, float | None]) -> dict[str, Any]:
@@ -294,9 +310,21 @@ class DraftCore:
             ukc = derived.under_keel(self._depth[1], at, cfg.transducer_height, deepest)
         return {"squat": squat, "ukc": ukc}
 
-    def _cargo(self, t: float, mean_draft: float | None, means: dict[str, float | None]) -> dict[str, Any]:
+    def _mean_draft_std(self, means: dict[str, float | None]) -> float | None:
+        """1-σ of the six marks' mean: their filters' variances, a filled mark's taken
+        as twice the measured ones' (its partner's and the list's)."""
+        got = [self.filters[m].mean_var for m in derived.MARKS if means[m] is not None]
+        if not got:
+            return None
+        avg = sum(got) / len(got)
+        total = sum(got) + 2.0 * avg * len(self._filled)
+        n = len(got) + len(self._filled)
+        return math.sqrt(max(total, 0.0)) / n
+
+    def _cargo(self, t: float, mean_draft: float | None, mean_std: float | None) -> dict[str, Any]:
         cfg = self.cfg
-        none = {"displacement_change": None, "cargo_rate": None}
+        none = {"displacement_change": None, "displacement_change_std": None, "cargo_rate": None,
+                "cargo_rate_std": None}
         if mean_draft is None or (cfg.tpc is None and not cfg.hydrostatics):
             return none
         if self._first_mean_t is None:
@@ -305,6 +333,7 @@ class DraftCore:
             if t - self._first_mean_t < cfg.reference_after:
                 return none
             self._reference = (t, mean_draft)
+            self._reference_std = mean_std or 0.0
         got = derived.displacement(mean_draft, cfg.tpc, cfg.hydrostatics, self._reference[1])
         if got is None:
             return none
@@ -316,12 +345,18 @@ class DraftCore:
         hist.append((t, mean_draft))
         while hist and hist[0][0] < t - cfg.cargo_window:
             hist.popleft()
-        rate = None
+        rate = rate_std = None
         if len(hist) >= 10:
             ts = np.array([h[0] for h in hist]) - t
             ds = np.array([h[1] for h in hist])
-            rate = float(np.polyfit(ts, ds, 1)[0])
-        return {"displacement_change": change, "cargo_rate": None if rate is None else per_metre * rate * 3600.0}
+            slope, d0 = np.polyfit(ts, ds, 1)
+            rate = float(slope)
+            res = ds - (d0 + rate * ts)
+            rate_std = _slope_std(ts, res)
+        change_std = per_metre * math.hypot(mean_std or 0.0, self._reference_std)
+        return {"displacement_change": change, "displacement_change_std": change_std,
+                "cargo_rate": None if rate is None else per_metre * rate * 3600.0,
+                "cargo_rate_std": None if rate_std is None else per_metre * rate_std * 3600.0}
 
     def health(self) -> dict[str, Any]:
         marks = {}

@@ -151,6 +151,13 @@ def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
     assert v["mean_draft"] - ref.values["mean_draft"] == pytest.approx(-0.001 * (out[-1].t - ref.t), abs=0.02)
     # 1 mm/s of discharge at 100 t/cm: −10 t/s, 36,000 t/h
     assert v["cargo_rate"] == pytest.approx(-36_000, rel=0.2)
+    # with σ: the true values within 3σ of what is read, and the σ not vacuous
+    true_change = 100 * 100 * -0.001 * (out[-1].t - ref.t)
+    print(f"change {v['displacement_change']:.0f} ± {v['displacement_change_std']:.0f} t (truth {true_change:.0f}), "
+          f"rate {v['cargo_rate']:.0f} ± {v['cargo_rate_std']:.0f} t/h")
+    assert abs(v["displacement_change"] - true_change) < 3 * v["displacement_change_std"] < 1.5 * abs(true_change)
+    assert abs(v["cargo_rate"] + 36_000) < 3 * v["cargo_rate_std"] < 0.3 * 36_000
+    assert 0.0 < v["mean_draft_std"] < 0.02 and v["filled"] == []
 
 
 def test_bad_depths_stw_and_late_readings_are_counted_not_used():
