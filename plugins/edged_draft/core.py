@@ -74,6 +74,7 @@ class DraftCore:
         self._retuned: float | None = None
         self._depth: tuple[float, float] | None = None  # t, depth below transducer
         self._stw: tuple[float, float] | None = None  # t, m/s
+        self._stw_std: float | None = None
         self._stw_recent: deque[tuple[float, float]] = deque()  # (t, m/s) over `speed_window`
         self._stw_fit = (0.0, 0.0, 0.0)  # t, fitted STW there (m/s), its rate (m/s²)
         self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
@@ -90,6 +91,8 @@ class DraftCore:
                 v = rec.values.get("stw")
                 if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
                     self._stw = (rec.t, float(v))
+                    sd = rec.values.get("stw_std")
+                    self._stw_std = float(sd) if isinstance(sd, (int, float)) and math.isfinite(sd) else None
                     self._fit_speed(rec.t, float(v))
                 elif v is not None:  # null: the STW estimator has none yet
                     self.rejected["stw.bad_value"] += 1
@@ -295,9 +298,11 @@ class DraftCore:
 
     def _squat_ukc(self, t: float, filled: dict[str, float | None], pos: dict[str, float | None]) -> dict[str, Any]:
         cfg = self.cfg
-        squat = None
+        squat = squat_std = None
         if cfg.block_coefficient is not None and self._stw is not None and t - self._stw[0] <= cfg.stw_max_age:
             squat = derived.barrass_squat(self._stw[1], cfg.block_coefficient, cfg.blockage)
+            if self._stw_std is not None and self._stw[1] > 0.0:
+                squat_std = 2.0 * squat / self._stw[1] * self._stw_std  # S ∝ V²: dS = 2S/V·dV
         ukc = None
         st = derived.stations(filled)
         if self._depth is not None and t - self._depth[0] <= cfg.depth_max_age and st["fore"] is not None \
@@ -308,7 +313,7 @@ class DraftCore:
                 at = pos["mean_draft"] if pos["mean_draft"] is not None else 0.5 * (st["fore"] + st["aft"])
             deepest = max(v for v in filled.values() if v is not None)
             ukc = derived.under_keel(self._depth[1], at, cfg.transducer_height, deepest)
-        return {"squat": squat, "ukc": ukc}
+        return {"squat": squat, "squat_std": squat_std, "ukc": ukc}
 
     def _mean_draft_std(self, means: dict[str, float | None]) -> float | None:
         """1-σ of the six marks' mean: their filters' variances, a filled mark's taken

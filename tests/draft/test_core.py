@@ -134,10 +134,11 @@ def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
                                  reference_after=40.0))
     ms = list(hull.measurements())
     extra = [Measurement("depth", "sounder", T0 + k, {"depth": 8.0}) for k in range(120)]
-    extra += [Estimate("stw", "stw", T0 + k, {"stw": 10 * 1852 / 3600}) for k in range(120)]
+    extra += [Estimate("stw", "stw", T0 + k, {"stw": 10 * 1852 / 3600, "stw_std": 0.05}) for k in range(120)]
     out = run(core, sorted(ms + extra, key=lambda r: r.t))
     v = out[-1].values
     assert v["squat"] == pytest.approx(0.8, rel=0.01)
+    assert v["squat_std"] == pytest.approx(2 * 0.8 / (10 * 1852 / 3600) * 0.05, rel=0.01)
     # water 8 m below the keel at midships plus the draft there; the deepest mark aft
     mid = hull.mean(np.array([119.0]))[0]
     assert v["ukc"] == pytest.approx(8.0 + mid - (mid + 0.15 + 0.025), abs=0.03)
