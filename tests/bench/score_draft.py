@@ -433,8 +433,11 @@ def main() -> None:
     # The longest replays first, so that the pool's tail is short.
     order = {"draft-harbour": 0, "harbour-jonswap": 1, "draft-faulty-mark": 2, "harbour-1200": 3}
     jobs.sort(key=lambda j: (order.get(j[0], 9), j[1]))
-    with ThreadPoolExecutor(a.jobs) as ex:
-        results = list(ex.map(lambda j: run_one(out, j[0], j[1], overrides), jobs))
+    try:
+        with ThreadPoolExecutor(a.jobs) as ex:
+            results = list(ex.map(lambda j: run_one(out, j[0], j[1], overrides), jobs))
+    except RuntimeError as exc:
+        raise SystemExit(f"score_draft: {exc}") from None
     by: dict[str, list[dict]] = {}
     for r in results:
         by.setdefault(r["label"], []).append(r)
