@@ -45,6 +45,13 @@ import math
 import numpy as np
 
 
+#: Seconds between the samples of each resonator's energy and of the wave part's
+#: square (`WaveMark._sample`): one reading in ten at 100 Hz, a tenth of the work.
+#: (The phase advance the bank retunes from is read at every update: read over
+#: 0.1 s, the 90-s mean errors of a regular sea doubled.)
+SAMPLE_STEP = 0.1
+
+
 class WaveBank:
     """The shared parts of every mark's model: frequencies, H, F and Q per step size."""
 
@@ -72,11 +79,12 @@ class WaveBank:
         H[w0::2] = 1.0
         self.H = H
         self.idx = np.flatnonzero(H)
-        self.wave_diag = np.arange(w0, self.n)  # the resonators' rows of P's diagonal
+        self.wave_diag = np.arange(w0, self.n) * (self.n + 1)  # the resonators' diagonal in P.flat
         self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
 
-    def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """F(dt) and the unit-variance part of the resonators' Q (1 − e^(−2ζω dt))."""
+    def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """F(dt), the unit-variance part of the resonators' Q (1 − e^(−2ζω dt)) and the
+        level's Q, made once per step size (the sensors keep to their rate)."""
         key = round(dt, 6)
         got = self._cache.get(key)
         if got is not None:
@@ -93,8 +101,8 @@ class WaveBank:
         unit = 1.0 - np.exp(-2.0 * self.zeta * self.omega * dt)
         if len(self._cache) > 64:
             self._cache.clear()
-        self._cache[key] = (F, unit)
-        return F, unit
+        got = self._cache[key] = (F, np.repeat(unit, 2), self.level_q(dt))
+        return got
 
     def observe_phase(self, energy: np.ndarray, rate_error: np.ndarray) -> None:
         """A mark's resonators turned at ω + rate_error (rad/s) with this energy."""
@@ -125,7 +133,7 @@ class WaveMark:
                  squat: tuple[float, float] = (0.0, 0.0)) -> None:
         self.bank = bank
         n = bank.n
-        self.t = self.t0 = t0
+        self.t = self.t0 = self._sampled = t0
         self.x = np.zeros(n)
         self.x[0] = z0
         P = np.zeros((n, n))
@@ -153,13 +161,12 @@ class WaveMark:
         if dt <= 0.0:
             return
         b = self.bank
-        F, unit = b.transition(dt)
+        F, unit, level_q = b.transition(dt)
         x = F @ self.x
         P = F @ self.P @ F.T
-        P[:3, :3] += b.level_q(dt)
+        P[:3, :3] += level_q
         P[3, 3] += b.q_squat * dt
-        q = np.repeat(self.var_k * unit, 2)
-        P[b.wave_diag, b.wave_diag] += q
+        P.flat[b.wave_diag] += np.repeat(self.var_k, 2) * unit
         if u is not None and self.u is not None and u != self.u:
             # d ← d + Δu·κ: J = I + Δu e₀e₃ᵀ, P ← J P Jᵀ
             du = u - self.u
@@ -168,10 +175,17 @@ class WaveMark:
             P[:, 0] += du * P[:, 3]
         self.u, self.u_rate = u, (u_rate if u is not None else 0.0)
         self.x, self.P, self.t = x, P, t
-        # each resonator's share of the sea: the mean of its energy over the window (from
-        # the start, the mean since then: the prior's 0.3 m would take minutes to fade)
+        if t - self._sampled >= SAMPLE_STEP:
+            self._sample(t - self._sampled)
+            self._sampled = t
+
+    def _sample(self, dt: float) -> None:
+        """Every SAMPLE_STEP: each resonator's share of the sea, the mean of its energy
+        over the window (from the start, the mean since then: the prior's 0.3 m would
+        take minutes to fade), and the wave part's mean square for the amplitude. Both
+        are means over tens of seconds: ten samples a second hold them."""
+        t, x, w0 = self.t, self.x, self.bank.W0
         a = min(1.0, dt / min(self.window, max(t - self.t0, dt)))
-        w0 = b.W0
         energy = 0.5 * (x[w0::2] ** 2 + x[w0 + 1::2] ** 2)
         self.var_k = np.maximum((1.0 - a) * self.var_k + a * energy, self.floor2)
         w = float(x[w0::2].sum())
@@ -181,25 +195,25 @@ class WaveMark:
 
     def update(self, z: float, R: float, gate: float | None) -> tuple[float, float, float, bool]:
         """(y, S, NIS, applied) of one reading; not applied beyond the gate."""
-        idx = self.bank.idx
+        H = self.bank.H
         x, P = self.x, self.P
-        PHt = P[:, idx].sum(axis=1)
-        y = z - float(x[idx].sum())
-        S = float(PHt[idx].sum()) + R
+        PHt = P @ H
+        y = z - float(H @ x)
+        S = float(H @ PHt) + R
         nis = y * y / S
         if gate is not None and nis > gate:
             return y, S, nis, False
         K = PHt / S
         self.x = x + K * y
-        self.P = P - np.outer(K, PHt)
+        P -= K[:, None] * PHt  # P − K H P (PHt = P Hᵀ, P symmetric)
         self._phase_rate()
         return y, S, nis, True
 
     def _phase_rate(self) -> None:
         """The resonators' phase advance since the last update, beyond their ω."""
+        prev = self._prev
         w0 = self.bank.W0
         c, s = self.x[w0::2], self.x[w0 + 1::2]
-        prev = self._prev
         self._prev = (self.t, c.copy(), s.copy())
         if prev is None or self.t <= prev[0]:
             return
