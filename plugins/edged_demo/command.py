@@ -21,7 +21,7 @@ from edged.runtime import Runtime
 
 log = logging.getLogger("edged.demo")
 
-SCENARIO = "manoeuvre-zigzag-north"
+SCENARIO = "demo"
 STATUS_EVERY_S = 5.0
 
 

@@ -14,6 +14,8 @@ Each follows a reference scenario of ESTIMATORS.md and the paper behind it:
 - `draft-squat` (seed 003 §7.4): C_b 0.8 in a channel (blockage 0.25, so K = 2 and the
   paper's 1.6 m of squat at 10 kn), 10 kn for 50 s then up to 15 kn in 2 minutes,
   in 0.4 m / 10 s waves.
+- `demo`: what `edged demo` plays: the zigzag about north with the whole reference suite
+  (draft marks included, so that every estimator has its inputs) in a 0.4 m / 10 s sea.
 - `faults`: the reference suite with bad checksums, garbage, impossible positions,
   truncated frames, lost samples, a GNSS outage and a 150 m position jump.
 """
@@ -135,6 +137,12 @@ SCENARIOS: dict[str, Scenario] = {
             reference_suite(10.0),
             waves=RegularWaves(0.4, 10.0, from_deg=270.0), water=Water(depth=14.0, channel_width=92.0),
             loading=Loading(draft_knots=((0.0, 10.0),), roll_period=18.0),
+        ),
+        Scenario(
+            "demo", "`edged demo`: the zigzag about north with every sensor, the draft marks too, "
+            "in a 0.4 m / 10 s sea", 900.0,
+            CARGO, ZigZag(11.4, 0.0), 0.0, reference_suite(7.0), water=Water(depth=80.0),
+            waves=RegularWaves(0.4, 10.0, from_deg=30.0), loading=Loading(draft_knots=((0.0, 7.0),), trim=0.5),
         ),
         Scenario(
             "faults", "Reference suite with injected damage, lost samples and a position jump", 600.0,

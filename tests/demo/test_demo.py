@@ -33,3 +33,6 @@ def test_demo_reads_both_inputs_and_records(tmp_path):
     assert any(t.startswith("/meas/heading/") for t in topics), topics
     assert any(t.startswith("/meas/position/") for t in topics), topics
     assert set(health["inputs"]) == {"nmea", "can0"}
+    # every estimator has its inputs: the draft marks too
+    assert any(t.startswith("/meas/draft/") for t in topics), topics
+    assert {"/est/stw", "/est/manoeuvre", "/est/draft"} <= set(topics), topics
