@@ -167,7 +167,6 @@ class DraftCore:
         else:
             self.filters[name] = WaveMark(self.bank, z, t, sigma, cfg.wave_sigma,
                                           amplitude_window=cfg.amplitude_window, squat=self._squat_prior())
-            self._predict(self.filters[name], t)  # its speed now: κ learns from the changes
         self.noise.setdefault(name, MarkNoise(cfg.sensor_sigma))
         self.state[name].settle(t)
 
@@ -376,6 +375,10 @@ class DraftCore:
             f = next(iter(self.filters.values()))
             if isinstance(f, WaveMark):
                 out["wave_period"] = round(f.peak_period(), 2)
+                # the sinkage per (m/s)² of STW the marks have shown (Barrass's prior until
+                # the speed changes), fore to aft: the ship's own squat law
+                out["squat_coefficient"] = {m: round(g.squat_coefficient, 5) for m, g in self.filters.items()
+                                            if isinstance(g, WaveMark)}
         out["depth"] = self._depth is not None
         out["stw"] = self._stw is not None
         return out
