@@ -102,6 +102,9 @@ class DraftConfig(EstimatorConfig):
     transducer_height: float = Field(0.0, ge=-10.0, le=30.0)
     #: Depth readings older than this (s) give no under-keel clearance.
     depth_max_age: float = Field(10.0, gt=0.0, le=3600.0)
+    #: Seconds over which the soundings' water depth is averaged (the sounder's noise;
+    #: a transiting ship's seabed changes along the track, so not much longer).
+    depth_window: float = Field(10.0, gt=0.0, le=3600.0)
     #: The estimator instance whose STW gives the squat (null: none, no squat).
     stw_from: str | None = "stw"
     #: STW estimates older than this (s) give no squat.

@@ -73,6 +73,7 @@ class DraftCore:
         self.seen = 0
         self._retuned: float | None = None
         self._depth: tuple[float, float] | None = None  # t, depth below transducer
+        self._water: float | None = None  # water depth (m), the sounder's mean over `depth_window`
         self._stw: tuple[float, float] | None = None  # t, m/s
         self._stw_std: float | None = None
         self._stw_recent: deque[tuple[float, float]] = deque()  # (t, m/s) over `speed_window`
@@ -100,7 +101,9 @@ class DraftCore:
         if rec.kind == "depth":
             d = rec.values.get("depth")
             if isinstance(d, (int, float)) and math.isfinite(d) and d >= 0.0:
+                prev = self._depth
                 self._depth = (rec.t, float(d))
+                self._sounded(rec.t, float(d), None if prev is None else rec.t - prev[0])
             else:
                 self.rejected["depth.bad_value"] += 1
             return []
@@ -295,6 +298,31 @@ class DraftCore:
         values.update(self._cargo(t, pos["mean_draft"], mean_std))
         return [Estimate("draft", "draft", t, values)]
 
+    def _sounded(self, t: float, below: float, dt: float | None) -> None:
+        """The water depth from a sounding: the depth below the transducer plus how deep
+        the transducer is at that moment, waves included (the marks' instantaneous
+        drafts at the stations, on the line through them), less its height above the
+        keel; then a running mean over `depth_window` s (the seabed does not heave, the
+        sounder's noise does)."""
+        cfg = self.cfg
+        inst = {m: (f.draft if self.state[m].ok else None) for m, f in self.filters.items()}
+        for m in derived.MARKS:
+            if inst.get(m) is None:
+                inst[m] = derived.fill(m, inst)
+        st = derived.stations(inst)
+        if st["fore"] is None or st["aft"] is None:
+            return
+        if cfg.mark_spacing is not None:
+            at = derived.draft_at(cfg.transducer_x, st["fore"], st["aft"], cfg.mark_spacing)
+        else:
+            at = 0.5 * (st["fore"] + st["aft"])
+        water = derived.water_depth(below, at, cfg.transducer_height)
+        if self._water is None or dt is None or dt > cfg.depth_max_age:
+            self._water = water
+        else:
+            a = min(1.0, dt / cfg.depth_window)
+            self._water += a * (water - self._water)
+
     def _squat_ukc(self, t: float, filled: dict[str, float | None], pos: dict[str, float | None]) -> dict[str, Any]:
         cfg = self.cfg
         squat = squat_std = None
@@ -303,15 +331,10 @@ class DraftCore:
             if self._stw_std is not None and self._stw[1] > 0.0:
                 squat_std = 2.0 * squat / self._stw[1] * self._stw_std  # S ∝ V²: dS = 2S/V·dV
         ukc = None
-        st = derived.stations(filled)
-        if self._depth is not None and t - self._depth[0] <= cfg.depth_max_age and st["fore"] is not None \
-                and st["aft"] is not None:
-            if cfg.mark_spacing is not None:
-                at = derived.draft_at(cfg.transducer_x, st["fore"], st["aft"], cfg.mark_spacing)
-            else:
-                at = pos["mean_draft"] if pos["mean_draft"] is not None else 0.5 * (st["fore"] + st["aft"])
-            deepest = max(v for v in filled.values() if v is not None)
-            ukc = derived.under_keel(self._depth[1], at, cfg.transducer_height, deepest)
+        known = [v for v in filled.values() if v is not None]
+        if self._depth is not None and t - self._depth[0] <= cfg.depth_max_age and self._water is not None \
+                and known:
+            ukc = self._water - max(known)  # below the deepest mark's wave-free draft
         return {"squat": squat, "squat_std": squat_std, "ukc": ukc}
 
     def _mean_draft_std(self, means: dict[str, float | None]) -> float | None:

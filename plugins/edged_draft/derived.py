@@ -120,10 +120,10 @@ def barrass_squat(stw: float, cb: float, blockage: float | None) -> float:
     return k * cb * v * v / 100.0
 
 
-def under_keel(depth_below_transducer: float, draft_at_transducer: float, transducer_height: float,
-               deepest: float) -> float:
-    """Water depth (the sounder's reading plus how deep it sits) less the deepest draft."""
-    return depth_below_transducer + (draft_at_transducer - transducer_height) - deepest
+def water_depth(depth_below_transducer: float, draft_at_transducer: float, transducer_height: float) -> float:
+    """The sounder's reading plus how deep it sits (the draft there less its height
+    above the keel): the water under the ship, from her keel line's datum."""
+    return depth_below_transducer + (draft_at_transducer - transducer_height)
 
 
 def displacement(mean_draft: float, tpc: float | None, table: list[tuple[float, float]] | None,

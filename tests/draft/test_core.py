@@ -133,15 +133,19 @@ def test_squat_ukc_and_cargo_need_the_vessel_and_come_with_it():
     core = DraftCore(DraftConfig(type="draft", block_coefficient=0.8, tpc=100.0, mark_spacing=200.0,
                                  reference_after=40.0))
     ms = list(hull.measurements())
-    extra = [Measurement("depth", "sounder", T0 + k, {"depth": 8.0}) for k in range(120)]
+    # a sounder at midships on the keel, heaving with the ship over a seabed 18 m down
+    w = 2 * np.pi / hull.period
+    extra = [Measurement("depth", "sounder", T0 + k + 0.004,
+                         {"depth": 18.0 - float(hull.mean(np.array([k]))[0]) - hull.heave * np.sin(w * (k + 0.004))})
+             for k in range(120)]
     extra += [Estimate("stw", "stw", T0 + k, {"stw": 10 * 1852 / 3600, "stw_std": 0.05}) for k in range(120)]
     out = run(core, sorted(ms + extra, key=lambda r: r.t))
     v = out[-1].values
     assert v["squat"] == pytest.approx(0.8, rel=0.01)
     assert v["squat_std"] == pytest.approx(2 * 0.8 / (10 * 1852 / 3600) * 0.05, rel=0.01)
-    # water 8 m below the keel at midships plus the draft there; the deepest mark aft
-    mid = hull.mean(np.array([119.0]))[0]
-    assert v["ukc"] == pytest.approx(8.0 + mid - (mid + 0.15 + 0.025), abs=0.03)
+    # the water under the keel less the deepest mark's wave-free draft (aft port)
+    deepest = hull.mean(np.array([119.0]))[0] + 0.15 + 0.025
+    assert v["ukc"] == pytest.approx(18.0 - deepest, abs=0.02)
     # the change since the reference moment (the first estimate that has one) is
     # 100 t per cm of mean draft since then, and that is the hull's
     ref = next(e for e in out if e.values["displacement_change"] is not None)

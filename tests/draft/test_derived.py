@@ -48,9 +48,10 @@ def test_barrass_squat_in_open_water_and_in_a_channel():
 def test_under_keel_clearance_from_the_sounder_and_the_draft_line():
     at = derived.draft_at(0.3 * 225.0, fore=9.85, aft=10.15, spacing=225.0)
     assert at == pytest.approx(10.0 - 0.3 * 0.3)
-    # 8 m under a transducer on the keel where the hull draws 9.91: 17.91 m of water,
-    # the deepest mark 10.175 m
-    assert derived.under_keel(8.0, at, 0.0, 10.175) == pytest.approx(17.91 - 10.175)
+    # 8 m under a transducer on the keel where the hull draws 9.91: 17.91 m of water;
+    # 0.5 m above the keel, 17.41 m
+    assert derived.water_depth(8.0, at, 0.0) == pytest.approx(17.91)
+    assert derived.water_depth(8.0, at, 0.5) == pytest.approx(17.41)
 
 
 def test_displacement_change_from_tpc_and_from_a_hydrostatic_table():
