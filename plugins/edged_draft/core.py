@@ -56,8 +56,8 @@ def _slope_std(ts: np.ndarray, res: np.ndarray) -> float:
     rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res)) if np.dot(res, res) > 0 else 0.0
     rho = min(max(rho, 0.0), 0.99)
     n_eff = max(n * (1.0 - rho) / (1.0 + rho), 3.0)
-    sxx = float(np.sum((ts - ts.mean()) ** 2))
-    return math.sqrt(var / sxx * n / n_eff) if sxx > 0 else float("inf")
+    sxx = float(np.sum((ts - ts.mean()) ** 2))  # > 0: the ticks' times differ
+    return math.sqrt(var / sxx * n / n_eff)
 
 
 class DraftCore:
@@ -294,7 +294,7 @@ class DraftCore:
         mean_std = self._mean_draft_std(means) if pos["mean_draft"] is not None else None
         values: dict[str, Any] = {"marks": marks, **pos, "mean_draft_std": mean_std, "filled": list(self._filled),
                                   "mode": cfg.mode}
-        values.update(self._squat_ukc(t, filled, pos))
+        values.update(self._squat_ukc(t, filled))
         values.update(self._cargo(t, pos["mean_draft"], mean_std))
         return [Estimate("draft", "draft", t, values)]
 
@@ -323,7 +323,7 @@ class DraftCore:
             a = min(1.0, dt / cfg.depth_window)
             self._water += a * (water - self._water)
 
-    def _squat_ukc(self, t: float, filled: dict[str, float | None], pos: dict[str, float | None]) -> dict[str, Any]:
+    def _squat_ukc(self, t: float, filled: dict[str, float | None]) -> dict[str, Any]:
         cfg = self.cfg
         squat = squat_std = None
         if cfg.block_coefficient is not None and self._stw is not None and t - self._stw[0] <= cfg.stw_max_age:
