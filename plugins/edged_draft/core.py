@@ -19,7 +19,7 @@ from . import derived
 from .config import DraftConfig
 from .marks import MarkState
 from .paper import PaperMark
-from .waves import WaveBank, WaveMark
+from .waves import WaveBank, WaveMark, step_marks
 
 #: Below this the learned sensor σ is not believed (m): a stuck sensor is not precise.
 SIGMA_FLOOR = 0.001
@@ -81,12 +81,15 @@ class DraftCore:
         self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
         self._reference_std = 0.0
         self._first_mean_t: float | None = None
-        self._ever_ok = False
+        self._t_first: float | None = None  # the first reading's time (the estimator's start)
         self._filled: list[str] = []
         self._history: deque[tuple[float, float]] = deque()  # (t, mean draft) for the cargo rate
+        self._pending: dict[str, tuple[float, float]] = {}  # mark -> (t, draft) not yet filtered
 
     # ------------------------------------------------------------------ inputs
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
+        if isinstance(rec, Estimate) or rec.kind != "draft":
+            self._flush()  # the speed or a sounding reads the marks as they are now
         if isinstance(rec, Estimate):
             if self.cfg.stw_from is not None and rec.name == self.cfg.stw_from:
                 v = rec.values.get("stw")
@@ -118,6 +121,8 @@ class DraftCore:
         if st is None:
             self.rejected["draft.unknown_mark"] += 1
             return
+        if name in self._pending:
+            self._flush()
         self.seen += 1
         lost = st.heard(t)
         if lost:
@@ -142,11 +147,40 @@ class DraftCore:
             self.rejected[f"{name}.late"] += 1
             return
         if f is None:
+            if self._t_first is None:
+                self._t_first = t
             self._start(name, t, z)
             return
-        self._predict(f, t)
-        noise = self.noise[name]
-        y, S, nis, applied = f.update(z, noise.var, cfg.gate)
+        if isinstance(f, PaperMark):
+            self._predict(f, t)
+            y, S, nis, applied = f.update(z, self.noise[name].var, cfg.gate)
+            self._judged(name, t, z, y, S, applied)
+            return
+        self._pending[name] = (t, z)  # filtered with the other marks' readings (`_flush`)
+
+    def _flush(self) -> None:
+        """The readings held since the last flush, one per mark, filtered together
+        (`waves.step_marks`), then judged in the order they came.
+
+        Held until a mark's next reading, a sounding, an STW estimate or a tick: the
+        same records in the same order flush at the same places, so the estimates do
+        not depend on how the records were batched on their way here."""
+        pending = self._pending
+        if not pending:
+            return
+        self._pending = {}
+        names = list(pending)
+        marks = [self.filters[n] for n in names]
+        ts = [pending[n][0] for n in names]
+        zs = [pending[n][1] for n in names]
+        ys, Ss, _, applied = step_marks(marks, ts, zs, [self.noise[n].var for n in names],
+                                        [self._speed(t) for t in ts], self.cfg.gate)
+        for i, name in enumerate(names):
+            self._judged(name, ts[i], zs[i], float(ys[i]), float(Ss[i]), bool(applied[i]))
+
+    def _judged(self, name: str, t: float, z: float, y: float, S: float, applied: bool) -> None:
+        """What a filtered reading says of its mark: jumped, gated, or used."""
+        cfg, st = self.cfg, self.state[name]
         if st.gated(not applied, cfg.jump_after):
             st.out("jumped")
             self._start(name, t, z)
@@ -155,12 +189,11 @@ class DraftCore:
             self.rejected[f"{name}.gate"] += 1
             return
         if cfg.adapt_r:
-            noise.add(y, S)
+            self.noise[name].add(y, S)
         if st.lost_share > cfg.max_lost:
             st.out("gaps")
         else:
             st.settle(t)
-        self._retune(t)
 
     def _start(self, name: str, t: float, z: float) -> None:
         cfg = self.cfg
@@ -168,8 +201,10 @@ class DraftCore:
         if cfg.mode == "paper":
             self.filters[name] = PaperMark(z, t, cfg.omega_e, cfg.epsilon, cfg.q_v, cfg.q_m, sigma)
         else:
+            old = self.filters.get(name)
             self.filters[name] = WaveMark(self.bank, z, t, sigma, cfg.wave_sigma,
-                                          amplitude_window=cfg.amplitude_window, squat=self._squat_prior())
+                                          amplitude_window=cfg.amplitude_window, squat=self._squat_prior(),
+                                          row=old.row if isinstance(old, WaveMark) else None)
         self.noise.setdefault(name, MarkNoise(cfg.sensor_sigma))
         self.state[name].settle(t)
 
@@ -217,7 +252,10 @@ class DraftCore:
             f.predict(t)
 
     def _retune(self, t: float) -> None:
-        """Once a second of data time, the bank's frequencies follow the sea."""
+        """Once a second of data time, the bank's frequencies follow the sea. Called at
+        the ticks (after the flush), so that when it happens depends on data time only,
+        not on how the readings were grouped: ω moves the whole bank's F, and the
+        readings around a retune feel it."""
         if self.cfg.mode == "paper":
             return
         if self._retuned is None:
@@ -229,8 +267,10 @@ class DraftCore:
     # ------------------------------------------------------------------ output
     def tick(self, t: float) -> list[Estimate]:
         cfg = self.cfg
+        self._flush()
         if not self.filters:
             return []
+        self._retune(t)
         marks: dict[str, dict[str, Any]] = {}
         means: dict[str, float | None] = {}
         for name in derived.MARKS:
@@ -275,13 +315,14 @@ class DraftCore:
             st, f = self.state[name], self.filters.get(name)
             if f is None or st.reason != "settling":
                 continue
-            starting = not self._ever_ok
+            # at the estimator's start (its first `settle` seconds), a mark not yet in is
+            # judged at every tick after START_SETTLE: the sea still in the first means
+            # may put one past `agree` at the first look, and it is not a return
+            starting = st.first and self._t_first is not None and t - self._t_first < cfg.settle
             st.judge(t, START_SETTLE if starting else cfg.settle, cfg.agree, f.mean, derived.fill(name, means))
             if st.ok:
                 means[name] = f.mean
                 marks[name]["ok"] = True
-        if any(self.state[m].ok for m in derived.MARKS):
-            self._ever_ok = True
         filled = dict(means)
         self._filled = []
         for name in derived.MARKS:

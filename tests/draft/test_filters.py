@@ -10,7 +10,7 @@ import pytest
 from scipy.linalg import expm
 
 from edged_draft.paper import PaperMark
-from edged_draft.waves import WaveBank, WaveMark
+from edged_draft.waves import WaveBank, WaveMark, step_marks
 
 
 def _van_loan(A: np.ndarray, Qc: np.ndarray, dt: float) -> np.ndarray:
@@ -111,3 +111,42 @@ def test_the_paper_filter_given_a_wrong_omega_leaves_the_sea_in_the_mean_the_ban
     adaptive = np.sqrt(np.mean((m_bank - mean)[k] ** 2))
     print(f"mean draft RMSE, ω_e 20 % off: paper {paper * 100:.1f} cm, adaptive {adaptive * 100:.2f} cm")
     assert adaptive < paper / 10  # measured: 0.36 cm against 29.0
+
+
+def test_marks_filtered_together_are_filtered_as_each_alone():
+    """`step_marks` (the six marks' readings in one stacked step) is the same filter as
+    `predict` + `update` per mark: on readings at shared and at staggered times, some
+    marks silent at some steps, a jump the gate stops, the speed changing (the squat
+    term) and the bank retuned, the states, covariances and ω agree to rounding."""
+    rng = np.random.default_rng(5)
+    banks, marks = [], []
+    for _ in range(2):
+        bank = WaveBank(3.0, 25.0, 12, 0.003, 1e-10, 1e-7)
+        banks.append(bank)
+        marks.append([WaveMark(bank, 10.0 + 0.1 * i, 0.0, 0.1, 0.05, squat=(0.01, 0.02)) for i in range(6)])
+    alone, together = marks
+    gated = 0
+    for k in range(1, 1500):
+        t = 0.01 * k
+        who = [i for i in range(6) if k % 9 != i]  # one mark silent now and then
+        ts = [t + (0.002 * i if k % 4 == 0 else 0.0) for i in who]  # staggered at times
+        zs = [10.0 + 0.1 * i + 0.3 * math.sin(0.6 * t + i) + rng.normal(0.0, 0.1) + (2.0 if k == 700 else 0.0)
+              for i in who]
+        u = (3.0 + 0.002 * k) ** 2 if k > 300 else None
+        got = step_marks([together[i] for i in who], ts, zs, [0.01] * len(who), [(u, 0.1)] * len(who), 15.1)
+        for j, i in enumerate(who):
+            alone[i].predict(ts[j], u, 0.1)
+            y, S, nis, applied = alone[i].update(zs[j], 0.01, 15.1)
+            assert got[0][j] == pytest.approx(y, abs=1e-9) and got[3][j] == applied
+            gated += not applied
+        if k % 100 == 0:
+            for b in banks:
+                b.retune(0.05)
+    assert gated >= 5  # the jump at step 700 was stopped by the gate, alike in both
+    for a, b in zip(alone, together):
+        assert np.allclose(a.x, b.x, rtol=0, atol=1e-9)
+        assert np.allclose(a.P, b.P, rtol=0, atol=1e-12)
+        assert np.allclose(a.var_k, b.var_k, rtol=0, atol=1e-12)
+        assert a.t == b.t and a.u == b.u
+    assert np.allclose(banks[0].omega, banks[1].omega, rtol=1e-12)
+    assert not np.allclose(banks[0].omega, banks[0].omega0)  # the retune was exercised
