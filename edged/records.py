@@ -181,6 +181,11 @@ class Measurement:
     def route_key(self) -> str:
         return self.kind
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # to a process worker: the constructor's arguments (half the bytes and half
+        # the time of the default for a __slots__ class)
+        return (Measurement, (self.kind, self.source, self.t, self.values, self.t_src))
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Measurement):
             return NotImplemented
@@ -224,6 +229,9 @@ class Estimate:
     @property
     def route_key(self) -> str:
         return "est/" + self.name
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Estimate, (self.name, self.source, self.t, self.values, self.kind))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Estimate):

@@ -54,3 +54,19 @@ def test_wrap_angle_stays_in_range():
 def test_json_form_is_the_contract():
     m = Measurement("heading", "gyro", 10.5, {"heading": 1.0}, t_src=10.4)
     assert measurement_to_json(m) == {"t": 10.5, "t_src": 10.4, "source": "gyro", "heading": 1.0}
+
+
+def test_records_reach_a_process_worker_whole():
+    """A process worker gets its inputs pickled: every field comes back, source times
+    and an unknown estimate kind included."""
+    import pickle
+
+    from edged.records import Estimate
+
+    for rec in (Measurement("draft", "can0.DraftMark", 1.5, {"mark": "aft_port", "draft": 9.87}, t_src=1.25),
+                Measurement("heading", "gyro", 2.0, {"heading": 0.5}),
+                Estimate("stw", "stw", 3.0, {"stw": 5.1, "stw_std": None}, kind="stw"),
+                Estimate("x", "x", 4.0, {}, kind=None)):
+        back = pickle.loads(pickle.dumps(rec, protocol=pickle.HIGHEST_PROTOCOL))
+        assert type(back) is type(rec) and back == rec
+        assert getattr(back, "t_src", None) == getattr(rec, "t_src", None)

@@ -368,6 +368,25 @@ async def test_a_failing_core_counts_the_input_it_failed_on_and_what_followed(re
     assert h.counters["steps"] == 2 and h.counters["dropped.core_failure"] == 4
 
 
+async def test_a_process_core_failing_after_the_first_message_of_a_batch_loses_only_what_followed(registry):
+    """A batch to a process goes as messages of CHUNK_PROCESS calls, the next sent before
+    the last one's answer: a failure in the second keeps the first's results and the
+    calls before it in the second, and counts the rest."""
+    from edged.workers import CHUNK_PROCESS
+
+    n, bad = 2 * CHUNK_PROCESS + 88, CHUNK_PROCESS + 44
+    rt = _runtime(registry, {"estimators": {"s": {"type": "sum", "fail_on": 13.0, "stale_after": 0.0,
+                                                  "worker": "process"}}})
+    rt.restart = type(rt.restart)(initial=0.01, maximum=0.01)
+    for i in range(n):
+        rt.router.publish(yaw(100.0 + i, 13.0 if i == bad else 1.0))
+    await rt.start()
+    await wait_for(lambda: rt.workers[0].health.restarts == 1)
+    await rt.stop()
+    h = rt.workers[0].health
+    assert h.counters["steps"] == bad and h.counters["dropped.core_failure"] == n - bad
+
+
 async def test_stop_does_not_wait_on_an_upstream_worker_in_backoff(registry):
     est = {"sum": {"type": "sum", "fail_on": 13.0}, "chain": {"type": "chain", "upstream": "sum"}}
     rt = _runtime(registry, {"edged": {"shutdown_timeout": 30.0}, "estimators": est})
