@@ -30,6 +30,7 @@ the loop never waits on it. A core that raises, dies or hangs past the watchdog 
 from __future__ import annotations
 
 import asyncio
+import collections
 import heapq
 import itertools
 import logging
@@ -191,6 +192,8 @@ class ProcessRunner:
         return CoreFailed(f"the core's process died (exit code {code})", [])
 
     def _send(self, calls: list[Call]) -> None:
+        if self._conn is None:  # killed after a failure while this batch waited its turn
+            raise CoreFailed("the core's process is gone", [])
         try:
             self._conn.send(("calls", calls))
         except (OSError, ValueError):  # BrokenPipe: the child is gone
@@ -324,6 +327,12 @@ class WorkerHost:
         self._n = itertools.count()
         self._done = 0  # watermark: everything caused by numbers <= this is published
         self._busy = False
+        #: Batches on their way to the core, oldest first: (answer, calls, causes,
+        #: watermark once applied). A process takes the next before the last is
+        #: applied; the loop, one at a time.
+        self._inflight: collections.deque[tuple[asyncio.Future[list[list[Any]]], list[Call], list[int], int]] = \
+            collections.deque()
+        self.depth = 2 if placement == "process" else 1
         self._closing = False
         self._finished = False  # nothing more will be published (finished or gave up)
         self._finish_ran = False
@@ -471,9 +480,10 @@ class WorkerHost:
     def _apply(self, calls: list[Call], results: list[list[Any]], causes: list[int]) -> None:
         """What the core returned, in call order: published, held or marked stale."""
         decimate = self.publish_rate > 0
+        steps = 0
         for (what, arg), out, cause in zip(calls, results, causes):
             if what == "step":
-                self.health.count("steps")
+                steps += 1
                 if self._last_input_t is None or arg.t > self._last_input_t:
                     self._last_input_t = arg.t
                 if self._stale:
@@ -509,6 +519,8 @@ class WorkerHost:
                     values["age"] = arg - last_in
                     self._publish(Estimate(self.name, self.name, arg, values, self.kind), cause)
             self.health.info["age"] = None if last_in is None else max(0.0, arg - last_in)
+        if steps:
+            self.health.count("steps", steps)
 
     # -- the worker's life ----------------------------------------------------------
     @property
@@ -537,31 +549,76 @@ class WorkerHost:
         more = bool(pending) and pending[0][0] <= bound
         if final and not more:
             self._flush_reorder(bound, calls, causes)
-        if calls:
-            self._busy = True
-            try:
-                try:
-                    results = await self.runner.call(calls)
-                except CoreFailed as exc:
-                    self._failures += 1
-                    self._apply(calls[: len(exc.results)], exc.results, causes)
-                    # the call that failed and every one after it
-                    lost = sum(1 for what, _ in calls[len(exc.results) :] if what == "step")
-                    if lost:
-                        self.health.count("dropped.core_failure", lost)
-                    raise
-                self._apply(calls, results, causes)
-                self._failures = 0
-            finally:
-                self._busy = False
         if not more:
-            self._done = bound
+            done_after = bound
         else:
             # Everything numbered below the next pending record is done.
-            self._done = max(self._done, min(bound, pending[0][0] - 1))
+            done_after = max(self._done, min(bound, pending[0][0] - 1))
+        if calls:
+            self._busy = True
+            # (a process runner starts the exchange at once, in its helper thread)
+            if self.depth > 1:
+                call: asyncio.Future[list[list[Any]]] = asyncio.ensure_future(self.runner.call(calls))
+            else:  # in the loop: called here and now, as a future already done
+                call = asyncio.get_running_loop().create_future()
+                try:
+                    call.set_result(await self.runner.call(calls))
+                except CoreFailed as exc:
+                    call.set_exception(exc)
+            self._inflight.append((call, calls, causes, done_after))
+            # a batch to a process: the next one goes before this one's answer is
+            # applied (the child has it to hand when it is done with this one); at most
+            # `depth` on their way, and all of them applied when there is no more to do
+            while self._inflight and (len(self._inflight) > self.depth - 1 or final
+                                      or not (more or len(queue))):
+                await self._apply_oldest()
+        else:
+            while self._inflight:
+                await self._apply_oldest()
+            self._done = done_after
+        if more:
             self.wake()  # the rest of what is ready, in the next batch
+        if not calls:
+            for d in self.downstream:
+                d.wake()
+
+    async def _apply_oldest(self) -> None:
+        """Await the oldest batch on its way, publish what it made, move the watermark."""
+        call, calls, causes, done_after = self._inflight[0]
+        try:
+            try:
+                results = await call
+            except CoreFailed as exc:
+                self._failures += 1
+                self._inflight.popleft()
+                self._apply(calls[: len(exc.results)], exc.results, causes)
+                # the call that failed and every one after it, and the batches sent after it
+                lost = sum(1 for what, _ in calls[len(exc.results) :] if what == "step")
+                lost += await self._drop_inflight()
+                if lost:
+                    self.health.count("dropped.core_failure", lost)
+                raise
+            self._inflight.popleft()
+            self._apply(calls, results, causes)
+            self._failures = 0
+            self._done = done_after
+        finally:
+            self._busy = bool(self._inflight)
         for d in self.downstream:
             d.wake()
+
+    async def _drop_inflight(self) -> int:
+        """After a failure: the batches still on their way are waited for (their
+        answers belong to the core that failed) and their steps counted as lost."""
+        lost = 0
+        while self._inflight:
+            call, calls, _, _ = self._inflight.popleft()
+            try:
+                await call
+            except Exception:  # (it failed too, or the process is gone: lost either way)
+                pass
+            lost += sum(1 for what, _ in calls if what == "step")
+        return lost
 
     async def run(self) -> None:
         """Feed the core until cancelled or, after `finish()`, until all is done."""
@@ -615,6 +672,14 @@ class WorkerHost:
     def restart(self) -> None:
         """After a failure: a fresh core next time `run()` starts (inputs kept)."""
         self._held = None
+        if self._inflight:  # on their way when the worker was stopped: lost with its core
+            lost = sum(1 for _, calls, _, _ in self._inflight for what, _ in calls if what == "step")
+            for call, *_ in self._inflight:
+                call.cancel()
+            self._inflight.clear()
+            self._busy = False
+            if lost:
+                self.health.count("dropped.core_failure", lost)
         if self._reorder:  # held for the old core's time order: counted, not replayed
             self.health.count("dropped.core_failure", len(self._reorder))
             self._reorder.clear()

@@ -169,7 +169,7 @@ class DraftCore:
         if not pending:
             return
         self._pending = {}
-        names = list(pending)
+        names = sorted(pending, key=lambda n: self.filters[n].row)  # the bank's order
         marks = [self.filters[n] for n in names]
         ts = [pending[n][0] for n in names]
         zs = [pending[n][1] for n in names]

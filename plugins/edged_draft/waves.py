@@ -86,7 +86,8 @@ class WaveBank:
         # from each of six marks is one numpy call, not six (`step_marks`)
         self.X = np.zeros((0, self.n))
         self.P = np.zeros((0, self.n, self.n))
-        self.var2 = np.zeros((0, 2 * k))  # each resonator's σ_k², per state (c_k, s_k)
+        self.var_k = np.zeros((0, k))  # each resonator's σ_k² (`sample`)
+        self.var2 = np.zeros((0, 2 * k))  # the same per state (c_k, s_k), for Q
         self.prev_c = np.zeros((0, k))  # the resonators at each mark's last update
         self.prev_s = np.zeros((0, k))
         self.prev_t = np.zeros(0)  # its time (NaN: none yet)
@@ -100,6 +101,7 @@ class WaveBank:
         r = self.rows
         self.X = np.concatenate([self.X, np.zeros((1, self.n))])
         self.P = np.concatenate([self.P, np.zeros((1, self.n, self.n))])
+        self.var_k = np.concatenate([self.var_k, np.zeros((1, self.k))])
         self.var2 = np.concatenate([self.var2, np.zeros((1, 2 * self.k))])
         self.prev_c = np.concatenate([self.prev_c, np.zeros((1, self.k))])
         self.prev_s = np.concatenate([self.prev_s, np.zeros((1, self.k))])
@@ -135,9 +137,12 @@ class WaveBank:
     def observe_phase(self, energy: np.ndarray, rate_error: np.ndarray) -> None:
         """A mark's resonators turned at ω + rate_error (rad/s) with this energy (or
         several marks', one row each)."""
-        k = self.k
-        self._err += (energy * rate_error).reshape(-1, k).sum(axis=0)
-        self._wsum += energy.reshape(-1, k).sum(axis=0)
+        if energy.ndim == 1:
+            self._err += energy * rate_error
+            self._wsum += energy
+        else:
+            self._err += (energy * rate_error).sum(axis=0)
+            self._wsum += energy.sum(axis=0)
 
     def retune(self, gain: float) -> None:
         """Move each ω toward the phase rate its resonators showed, energy-weighted
@@ -173,10 +178,10 @@ class WaveMark:
         P[2, 2] = 1e-6
         x[3] = squat[0]  # κ's prior, m per (m/s)², and its 1-σ
         P[3, 3] = squat[1] * squat[1]
-        self.var_k = np.full(bank.k, wave_sigma * wave_sigma)
         w0 = bank.W0
         r = self.row
-        bank.var2[r] = np.repeat(self.var_k, 2)
+        bank.var_k[r] = wave_sigma * wave_sigma
+        bank.var2[r] = np.repeat(bank.var_k[r], 2)
         P[w0:, w0:] = np.diag(bank.var2[r])
         bank.X[r], bank.P[r] = x, P
         bank.prev_t[r] = math.nan
@@ -196,6 +201,11 @@ class WaveMark:
     @property
     def P(self) -> np.ndarray:
         return self.bank.P[self.row]
+
+    @property
+    def var_k(self) -> np.ndarray:
+        """Each resonator's share of the sea here, σ_k² (m²)."""
+        return self.bank.var_k[self.row]
 
     def predict(self, t: float, u: float | None = None, u_rate: float = 0.0) -> None:
         """To time t, where the STW squared is u (None: unknown) and changing at u_rate."""
@@ -219,22 +229,9 @@ class WaveMark:
         self.t = t
         if t - self._sampled >= SAMPLE_STEP:
             self._sample(t - self._sampled, x)
-            self._sampled = t
 
     def _sample(self, dt: float, x: np.ndarray) -> None:
-        """Every SAMPLE_STEP: each resonator's share of the sea, the mean of its energy
-        over the window (from the start, the mean since then: the prior's 0.3 m would
-        take minutes to fade), and the wave part's mean square for the amplitude. Both
-        are means over tens of seconds: ten samples a second hold them."""
-        t, w0 = self.t, self.bank.W0
-        a = min(1.0, dt / min(self.window, max(t - self.t0, dt)))
-        energy = 0.5 * (x[w0::2] ** 2 + x[w0 + 1::2] ** 2)
-        self.var_k = np.maximum((1.0 - a) * self.var_k + a * energy, self.floor2)
-        self.bank.var2[self.row] = np.repeat(self.var_k, 2)
-        w = float(x[w0::2].sum())
-        self._wave_n += 1
-        aw = max(min(1.0, dt / self.amp_window), 1.0 / self._wave_n)
-        self._wave2 = (1.0 - aw) * self._wave2 + aw * w * w
+        sample([self], [dt], x[None, :])
 
     def update(self, z: float, R: float, gate: float | None) -> tuple[float, float, float, bool]:
         """(y, S, NIS, applied) of one reading; not applied beyond the gate."""
@@ -311,6 +308,29 @@ class WaveMark:
 
 
 
+def sample(marks: list[WaveMark], dts: list[float], X: np.ndarray) -> None:
+    """Every SAMPLE_STEP, for these marks (their states X, one row each, as they are
+    now): each resonator's share of the sea, the mean of its energy over the window
+    (from the start, the mean since then: the prior's 0.3 m would take minutes to
+    fade), and the wave part's mean square for the amplitude. Both are means over tens
+    of seconds: ten samples a second hold them."""
+    bank = marks[0].bank
+    w0 = bank.W0
+    rows = [m.row for m in marks]
+    a = np.array([min(1.0, dt / min(m.window, max(m.t - m.t0, dt))) for m, dt in zip(marks, dts)])[:, None]
+    c, s = X[:, w0::2], X[:, w0 + 1::2]
+    energy = 0.5 * (c * c + s * s)
+    floor2 = np.array([m.floor2 for m in marks])[:, None]
+    var_k = np.maximum((1.0 - a) * bank.var_k[rows] + a * energy, floor2)
+    bank.var_k[rows] = var_k
+    bank.var2[rows] = np.repeat(var_k, 2, axis=1)
+    for m, dt, w in zip(marks, dts, c.sum(axis=1).tolist()):
+        m._wave_n += 1
+        aw = max(min(1.0, dt / m.amp_window), 1.0 / m._wave_n)
+        m._wave2 = (1.0 - aw) * m._wave2 + aw * w * w
+        m._sampled = m.t
+
+
 def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list[float],
                speeds: list[tuple[float | None, float]], gate: float | None) -> tuple[np.ndarray, ...]:
     """One reading for each of several marks of one bank (each mark at most once): the
@@ -328,15 +348,9 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
     bank = marks[0].bank
     w0, n, B = bank.W0, bank.n, len(marks)
     rows = [m.row for m in marks]
-    every = B == bank.rows and sorted(rows) == list(range(B))
-    if every:  # the common case: every mark once, in the bank's order (views, no copies)
-        order = sorted(range(B), key=rows.__getitem__)
-        marks = [marks[i] for i in order]
-        ts, zs, Rs, speeds = ([v[i] for i in order] for v in (ts, zs, Rs, speeds))
-        sel: slice | list[int] = slice(None)
-    else:
-        order = list(range(B))
-        sel = rows
+    # every mark once, in the bank's order (the core sends them so): its arrays as they
+    # are; otherwise the rows taken out and put back
+    sel: slice | list[int] = slice(None) if B == bank.rows and rows == list(range(B)) else rows
     X, P = bank.X[sel], bank.P[sel]
     dts = [max(t - m.t, 0.0) for t, m in zip(ts, marks)]
     # -- predict: x ← F x, P ← F P Fᵀ + Q (the level's jerk, κ's walk, each resonator's drive)
@@ -361,13 +375,16 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         X[:, 0] += d * X[:, 3]
         P[:, 0, :] += d[:, None] * P[:, 3, :]
         P[:, :, 0] += d[:, None] * P[:, :, 3]
+    due: list[int] = []
     for i, (m, t, dt, (u, u_rate)) in enumerate(zip(marks, ts, dts, speeds)):
         if dt > 0.0:  # (a reading at the mark's own time: no step, as in `predict`)
             m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
             m.t = t
             if t - m._sampled >= SAMPLE_STEP:
-                m._sample(t - m._sampled, X[i])
-                m._sampled = t
+                due.append(i)
+    if due:
+        sample([marks[i] for i in due], [marks[i].t - marks[i]._sampled for i in due],
+               X if len(due) == B else X[due])
     # -- update: z = H x + v
     H = bank.H
     PHt = P @ H
@@ -396,8 +413,4 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
     bank.prev_s[sel] = np.where(keep, Sn, bank.prev_s[sel])
     bank.prev_t[sel] = np.where(applied, t_now, pt)
     bank.X[sel], bank.P[sel] = X, P
-    if every:
-        back = np.empty(B, dtype=int)
-        back[order] = np.arange(B)
-        return y[back], S[back], nis[back], applied[back]
     return y, S, nis, applied

@@ -12,10 +12,12 @@
    best and median of `--runs` passes with a fresh core each: µs per reading and the
    CPU share of one core that 600 readings/s take (CPU s per s of data).
 2. A replay: `--hours` of `draft-harbour` (`edged sim --duration`, cached in `--out`)
-   replayed with `[estimators.stw]` and `[estimators.draft]` (the vessel's figures),
-   `--no-zenoh --no-progress --record run.mcap`: wall time and the real-time factor
-   (target ≥ 50×); and, unless `--no-compare`, the same replay with `[estimators.stw]`
-   alone, so that the draft estimator's share of the replay shows.
+   replayed with `[estimators.stw]` and `[estimators.draft]` (the vessel's figures; the
+   draft estimator in a process of its own, its default), `--no-zenoh --no-progress
+   --record run.mcap`: wall time, CPU time (this process and its children) and the
+   real-time factor (target ≥ 50×); and, unless `--no-compare`, the same replay with
+   the draft estimator in the event loop (`worker = "loop"`) and with
+   `[estimators.stw]` alone, so that the draft estimator's share of the replay shows.
 
 Not a pytest test (no `test_` prefix): run it on demand.
 """
@@ -122,8 +124,10 @@ def bench_replay(out: Path, hours: float, compare: bool) -> None:
     print(f"\n## 2. Replay of {hours:g} h of draft-harbour with recording ({size:.0f} MB of logs; sim {sim_s:.0f} s "
           f"or cached)")
     stw = '[estimators.stw]\ntype = "stw"\n'
-    runs = [("stw + draft", "stw_draft", stw + '\n[estimators.draft]\ntype = "draft"\n' + PARTICULARS)]
+    draft = stw + '\n[estimators.draft]\ntype = "draft"\n' + PARTICULARS
+    runs = [("stw + draft (draft in its process)", "stw_draft", draft)]
     if compare:
+        runs.append(("stw + draft (draft in the loop)", "stw_draft_loop", draft + 'worker = "loop"\n'))
         runs.append(("stw alone", "stw_only", stw))
     print("| estimators | wall s | CPU s | × real time | target |")
     print("|---|---|---|---|---|")
@@ -135,9 +139,10 @@ def bench_replay(out: Path, hours: float, compare: bool) -> None:
         target = f"≥ {TARGET_RTF:g}×: {'met' if rtf >= TARGET_RTF else 'NOT met'}" if name == "stw_draft" else ""
         print(f"| {label} | {wall:.1f} | {cpu:.1f} | {rtf:.1f}× | {target} |")
     if compare:
-        extra = walls["stw_draft"] - walls["stw_only"]
-        print(f"(the draft estimator adds {extra:.1f} s of wall time: {1e6 * extra / (600 * seconds):.1f} µs per "
-              f"reading in the replay)")
+        for name, where in (("stw_draft", "in its process"), ("stw_draft_loop", "in the loop")):
+            extra = walls[name] - walls["stw_only"]
+            print(f"(the draft estimator {where} adds {extra:.1f} s of wall time: "
+                  f"{1e6 * extra / (600 * seconds):.1f} µs per reading in the replay)")
 
 
 def main() -> None:
