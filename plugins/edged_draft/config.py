@@ -53,9 +53,10 @@ class DraftConfig(EstimatorConfig):
     # The level (wave-free draft): a random walk on its acceleration.
     #: Spectral density of the level's jerk, m²/s⁵. Cargo work moves the draft by mm/s
     #: and changes that rate over minutes (squat, faster, follows the speed instead).
-    #: Its bandwidth, (q_jerk/(R·dt))^(1/6), is 0.1 rad/s for σ 0.1 m at 100 Hz: a
-    #: minute's period, well below the seas' and above any cargo plan's.
-    q_jerk: float = Field(1e-10, gt=0.0, le=1.0)
+    #: Its bandwidth, (q_jerk/(R·dt))^(1/6), is 0.07 rad/s for σ 0.1 m at 100 Hz: a
+    #: period of a minute and a half, well below the longest seas' (25 s; following
+    #: seas at speed meet the ship at 20 s) and above any cargo plan's.
+    q_jerk: float = Field(1e-11, gt=0.0, le=1.0)
     #: Squat: the level follows κ·STW² with κ learned (`waves.py`), from `stw_from`.
     squat_from_speed: bool = True
     #: κ's random walk, (m per (m/s)²)² per s: it may drift by 0.008 (a quarter of a
@@ -74,7 +75,10 @@ class DraftConfig(EstimatorConfig):
     #: Resonators in the bank, log-spaced in frequency.
     resonators: int = Field(12, ge=1, le=64)
     #: Damping ratio of each resonator: its bandwidth, relative to its frequency, is 2ζ.
-    damping: float = Field(0.003, gt=0.0, lt=1.0)
+    #: 0.006: each resonator's phase and amplitude follow a sea that is a spectrum,
+    #: not one sine, and an encounter frequency that moves with the speed (a pure
+    #: sine would want less, and passes a little more noise into the draft with it).
+    damping: float = Field(0.006, gt=0.0, lt=1.0)
     #: 1-σ of each resonator's motion before the sea says otherwise, m.
     wave_sigma: float = Field(0.3, gt=0.0, le=20.0)
     #: Seconds over which a mark's wave amplitude is measured (√2 × the RMS).
