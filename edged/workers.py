@@ -52,11 +52,12 @@ __all__ = ["WorkerHost", "LoopRunner", "ProcessRunner", "CoreFailed", "MAX_CALLS
 log = logging.getLogger("edged.workers")
 
 #: Calls made in one batch: in the loop, between two chances for the inputs to run; to
-#: a process, per batch, sent as messages of CHUNK_PROCESS calls (pickling a message
-#: holds the interpreter: 256 calls cost about 0.3 ms each way, so that a saturated
-#: process worker never stalls the loop for long).
+#: a process, per batch (preparing one and applying the last one's answers, back to
+#: back when the worker is saturated, hold the loop for about 1.2 ms per 512 calls
+#: each: 1024 made a 5-ms stall), sent as messages of CHUNK_PROCESS calls (pickling
+#: one holds the interpreter: 256 calls cost about 0.3 ms each way).
 MAX_CALLS = 1024
-MAX_CALLS_PROCESS = 4096
+MAX_CALLS_PROCESS = 512
 #: Calls per message to a process. The next message goes before the answer to the
 #: last is read, so that the child always has work: one message at a time, it sat idle
 #: while its answer travelled back and the loop got round to it (half the time, with
