@@ -307,7 +307,6 @@ class WaveMark:
         return float(2.0 * math.pi / self.bank.omega[int(np.argmax(self.var_k))])
 
 
-
 def sample(marks: list[WaveMark], dts: list[float], X: np.ndarray) -> None:
     """Every SAMPLE_STEP, for these marks (their states X, one row each, as they are
     now): each resonator's share of the sea, the mean of its energy over the window
