@@ -160,7 +160,8 @@ class DraftCore:
 
     def _flush(self) -> None:
         """The readings held since the last flush, one per mark, filtered together
-        (`waves.step_marks`), then judged in the order they came.
+        (`waves.step_marks`, in the bank's row order), then judged mark by mark (each
+        verdict is the mark's own: the order among them changes nothing).
 
         Held until a mark's next reading, a sounding, an STW estimate or a tick: the
         same records in the same order flush at the same places, so the estimates do

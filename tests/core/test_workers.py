@@ -387,6 +387,18 @@ async def test_a_process_core_failing_after_the_first_message_of_a_batch_loses_o
     assert h.counters["steps"] == bad and h.counters["dropped.core_failure"] == n - bad
 
 
+def test_a_batch_that_waited_its_turn_behind_a_killed_process_fails_cleanly():
+    """After a failure the runner's process is killed; a batch already queued behind
+    the failing one then reaches no pipe: it fails as a core failure (counted lost by
+    the host), not with an AttributeError on a closed connection."""
+    from edged.workers import CoreFailed, ProcessRunner
+
+    runner = ProcessRunner(None, "x", watchdog=1.0)  # never started, or killed: no pipe
+    with pytest.raises(CoreFailed, match="process is gone"):
+        runner._exchange([("tick", 1.0)])
+    runner.close()
+
+
 async def test_stop_does_not_wait_on_an_upstream_worker_in_backoff(registry):
     est = {"sum": {"type": "sum", "fail_on": 13.0}, "chain": {"type": "chain", "upstream": "sum"}}
     rt = _runtime(registry, {"edged": {"shutdown_timeout": 30.0}, "estimators": est})
