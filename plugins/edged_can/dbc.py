@@ -10,6 +10,7 @@ draft's status) the choice's number is the value.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import cantools
 from cantools.database.can import Message
@@ -20,6 +21,7 @@ from edged.records import KINDS, Measurement, RawRecord
 
 from .config import CanConfig, SignalMap
 from .emit import Emitter
+from .fastdbc import unpacker
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,6 +42,9 @@ class _Frame:
     frames_key: str
     lost_key: str
     last_counter: int | None = None
+    #: `fastdbc.unpacker`'s decoder for data of the DBC's length (None: cantools' own)
+    fast: Callable[[bytes], dict[str, Any]] | None = None
+    length: int = -1  # the DBC's data length, for the fast decoder
 
 
 def _binding(sm: SignalMap, bus: str) -> _Binding:
@@ -78,7 +83,8 @@ class DbcDecoder:
             fr = frames.get(key)
             if fr is None:
                 fr = frames[key] = _Frame(
-                    msg, (), sm.counter, f"dbc.{msg.name}", f"dbc.lost.{msg.name}"
+                    msg, (), sm.counter, f"dbc.{msg.name}", f"dbc.lost.{msg.name}", fast=unpacker(msg),
+                    length=msg.length,
                 )
             fr.bindings += (_binding(sm, bus),)
             fr.counter = fr.counter or sm.counter
@@ -94,8 +100,12 @@ class DbcDecoder:
 
     def decode(self, raw: RawRecord, frame_id: int, ext: bool) -> list[Measurement]:
         fr = self._frames[(frame_id, ext)]
+        data = raw.data
         try:
-            sig = fr.message.decode(raw.data, decode_choices=True)
+            if fr.fast is not None and len(data) == fr.length:
+                sig = fr.fast(data)
+            else:  # (cantools says what is wrong with a frame of another length)
+                sig = fr.message.decode(data, decode_choices=True)
         except (cantools.database.DecodeError, ValueError, IndexError) as exc:
             self._health.count("rejected.dbc_frame")
             self._health.error(f"{fr.message.name}: cannot decode {raw.data.hex()} ({exc})")
