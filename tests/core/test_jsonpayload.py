@@ -35,3 +35,23 @@ def test_numpy_values_and_big_integers_are_encoded():
 def test_values_without_json_form_raise():
     with pytest.raises((TypeError, ValueError)):
         dumps({"x": object()})
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        {"t": 1.0, "t_src": None, "x": math.nan},  # a None beside the NaN: two nulls, one None
+        {"t": 1.0, "t_src": None, "v": {"a": None, "b": math.inf}},  # nested: not counted at the top
+        {"t": 1.0, "t_src": None, "source": "null", "x": -math.inf},  # "null" in a string as well
+        {"t": 1.0, "P": np.array([1.0, np.nan]), "t_src": None},  # a numpy array among the values
+    ],
+)
+def test_a_non_finite_beside_real_nulls_is_still_flagged(payload):
+    data, cleaned = dumps(payload)
+    assert cleaned is True and b"NaN" not in data and b"Infinity" not in data
+
+
+def test_nulls_that_are_all_the_objects_own_none_values_are_not_flagged():
+    for payload in ({"t": 1.0, "t_src": None, "source": "null"}, {"a": None, "b": None, "c": [1.0]},
+                    {"t": 1.0, "P": np.array([1.0, 2.0]), "t_src": None}):
+        assert dumps(payload)[1] is False
