@@ -33,7 +33,7 @@ import io
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Awaitable, BinaryIO, Callable, Iterator
+from typing import Any, Awaitable, BinaryIO, Callable, Iterable, Iterator
 
 from .clock import ReplayClock
 from .health import ComponentHealth
@@ -244,7 +244,7 @@ class Replayer:
         # then never drops, whatever its speed.
         batch = max(1, min([BATCH, *(w.sub.queue.maxsize // 8 for w in self.rt.workers)]))
         iters = [self._open(p) for p in self.paths]
-        merged = heapq.merge(*iters, key=_t) if len(iters) > 1 else iters[0]
+        merged = (_merge2(*iters) if len(iters) == 2 else heapq.merge(*iters, key=_t)) if len(iters) > 1 else iters[0]
         rt = self.rt
         publish = rt.router.publish
         clock = self.clock
@@ -261,6 +261,7 @@ class Replayer:
         speed = self.speed
         max_wait = self.max_wait
         sleep = self._sleep
+        decoders = self._decoders
         quiet_gc = _QuietGC()
         try:
             for raw in merged:
@@ -288,7 +289,9 @@ class Replayer:
                     elif delay > 0:
                         await sleep(delay)
                 publish(raw)
-                dec = self._decoder(raw.protocol, raw.source)
+                dec = decoders.get((raw.protocol, raw.source), _UNKNOWN)
+                if dec is _UNKNOWN:
+                    dec = self._decoder(raw.protocol, raw.source)
                 if dec is None:
                     stats.undecodable[raw.protocol] = stats.undecodable.get(raw.protocol, 0) + 1
                 else:
@@ -370,3 +373,34 @@ class _QuietGC:
 
 def _t(r: RawRecord) -> float:
     return r.t
+
+
+_UNKNOWN = object()  # no decoder looked up yet for a (protocol, source)
+
+
+def _merge2(first: Iterable[RawRecord], second: Iterable[RawRecord]) -> Iterator[RawRecord]:
+    """`heapq.merge(first, second, key=_t)` for the common replay of two logs (NMEA
+    and candump): the same order, ties to `first`, without a key call and a heap
+    operation per record (a microsecond each, millions of times an hour). A record
+    whose time is NaN (refused by the replay) goes out as soon as it is read, rather
+    than holding back the rest of its file."""
+    it1, it2 = iter(first), iter(second)
+    r2 = next(it2, None)
+    if r2 is None:
+        yield from it1
+        return
+    t2 = r2.t
+    for r1 in it1:
+        t1 = r1.t
+        if t1 == t1:  # (NaN: at once)
+            while not t2 >= t1:  # the second's earlier records, and a NaN one at once
+                yield r2
+                r2 = next(it2, None)
+                if r2 is None:
+                    yield r1
+                    yield from it1
+                    return
+                t2 = r2.t
+        yield r1
+    yield r2
+    yield from it2
