@@ -51,6 +51,8 @@ log = logging.getLogger("edged.replay")
 HEAD_BYTES = 32768
 #: Records between two looks at the outputs' queues and the progress bar.
 BATCH = 512
+#: Seconds a replay waiting for a full worker waits at most before it looks again.
+WORKER_WAIT = 0.05
 #: Longest wall-time wait of the pacing (`speed` > 0); a longer gap is skipped.
 MAX_WAIT = 10.0
 
@@ -337,11 +339,10 @@ class Replayer:
         await asyncio.sleep(0)
         rt = self.rt
         wlimit = min((w.sub.queue.maxsize // 2 for w in rt.workers), default=0)
-        spins = 0
         while rt.workers and rt.worker_backlog() > wlimit:
-            # A worker in its own process answers in its own time: poll gently.
-            spins += 1
-            await asyncio.sleep(0 if spins < 64 else 0.0005)
+            # until each full worker has taken its next batch (in its own process, in
+            # its own time: nothing here holds the GIL its helper thread needs)
+            await rt.worker_progress(wlimit, WORKER_WAIT)
         limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in rt.outputs), default=0)
         while rt.outputs and rt.output_backlog() > limit:
             await asyncio.sleep(0)

@@ -362,6 +362,13 @@ class Runtime:
         """Largest backlog of a worker: replay waits on it instead of dropping."""
         return max((w.backlog for w in self.workers), default=0)
 
+    async def worker_progress(self, limit: int, timeout: float) -> None:
+        """Wait until a worker whose backlog is over `limit` has taken its next batch,
+        or `timeout` seconds (a worker being restarted after a failure takes none)."""
+        waits = [w.progress() for w in self.workers if w.backlog > limit]
+        if waits:
+            await asyncio.wait(waits, timeout=timeout)
+
     async def _cancel(self, tasks: list[asyncio.Task[None]]) -> None:
         """Cancel and wait, bounded: a plugin that ignores cancellation is left behind."""
         for t in tasks:

@@ -333,6 +333,7 @@ class WorkerHost:
         #: Batches on their way to the core, oldest first: (answer, calls, causes,
         #: watermark once applied). A process takes the next before the last is
         #: applied; the loop, one at a time.
+        self._progress: asyncio.Future[None] | None = None  # see progress()
         self._inflight: collections.deque[tuple[asyncio.Future[list[list[Any]]], list[Call], list[int], int]] = \
             collections.deque()
         self.depth = 2 if placement == "process" else 1
@@ -688,11 +689,13 @@ class WorkerHost:
                     self._take(await get())  # an upstream worker is still finishing
                     continue
                 await self._work([], final=True)
+                self._progressed()
                 if not self._pending and not len(queue):
                     return
                 continue
             # Take what is queued, as far as the backlog stays within the queue's size.
             await self._work(await get(max(1, room - len(self._pending))))
+            self._progressed()
             if in_loop:
                 await asyncio.sleep(0)  # a batch stepped in the loop: let the inputs run
 
@@ -714,6 +717,21 @@ class WorkerHost:
             if self._closing and not len(self.sub.queue):
                 return
             lost = sum(1 for _, rec in await get(1 << 30) if _is_input(rec))
+            self._progressed()
+
+    def progress(self) -> "asyncio.Future[None]":
+        """Resolved when this worker has next taken a batch from its backlog: what a
+        replay waiting for room awaits, instead of polling the loop while a worker
+        in its own process works (the poll held the GIL its helper thread needed)."""
+        f = self._progress
+        if f is None or f.done():
+            f = self._progress = asyncio.get_running_loop().create_future()
+        return f
+
+    def _progressed(self) -> None:
+        f, self._progress = self._progress, None
+        if f is not None and not f.done():
+            f.set_result(None)
 
     def restart(self) -> None:
         """After a failure: a fresh core next time `run()` starts (inputs kept)."""

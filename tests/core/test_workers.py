@@ -446,3 +446,27 @@ def test_check_config_refuses_what_run_refuses_about_estimator_chains(registry, 
     for argv in (["check-config", str(cfg)], ["run", "-c", str(cfg)]):
         assert dispatch(build_parser().parse_args(argv), registry) == 2
         assert says in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("placement", ["loop", "process"])
+async def test_a_replay_waiting_for_room_wakes_when_the_full_worker_takes_a_batch(registry, placement):
+    """The replay's back-pressure awaits the worker's next batch (no poll of the loop);
+    with nothing over the limit it returns at once, and a worker that takes nothing
+    (not running) lets it go after the timeout."""
+    rt = _runtime(registry, {"estimators": {"sum": {"type": "sum", "worker": placement, "queue_size": 64}}})
+    for i in range(60):
+        rt.router.publish(yaw(100.0 + i * 0.1, 1.0))
+    w = rt.workers[0]
+    assert w.backlog == 60
+    loop = asyncio.get_running_loop()
+    t0 = loop.time()
+    await rt.worker_progress(100, timeout=SAFETY)  # nothing over the limit: no wait
+    await rt.worker_progress(32, timeout=0.05)  # not started: nothing taken, the timeout
+    assert w.backlog == 60 and loop.time() - t0 < SAFETY / 2
+    await rt.start()
+    t1 = loop.time()
+    await rt.worker_progress(32, timeout=SAFETY)
+    assert w.backlog < 60 and loop.time() - t1 < SAFETY / 2  # woken by the batch it took
+    await settle(rt)
+    await rt.stop()
+    assert len(streams(ListOutput.instances[0].records)["sum"]) == 60
