@@ -401,15 +401,21 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
     C, Sn = X[:, w0::2], X[:, w0 + 1::2]
     pt = bank.prev_t[sel]
     have = applied & (t_now > pt)  # (NaN: no update before)
-    if have.any():
-        pc, ps = bank.prev_c[sel], bank.prev_s[sel]
+    pc, ps = bank.prev_c[sel], bank.prev_s[sel]
+    if have.all():  # every mark used and updated before (nearly always): no masks
+        dphi = np.arctan2(Sn * pc - C * ps, C * pc + Sn * ps)
+        bank.observe_phase(C * C + Sn * Sn, dphi / (t_now - pt)[:, None] - bank.omega)
+    elif have.any():
         dphi = np.arctan2(Sn * pc - C * ps, C * pc + Sn * ps)
         energy = (C * C + Sn * Sn) * have[:, None]
         dt_p = np.where(have, t_now - np.where(have, pt, 0.0), 1.0)
         bank.observe_phase(energy, dphi / dt_p[:, None] - bank.omega)
-    keep = applied[:, None]
-    bank.prev_c[sel] = np.where(keep, C, bank.prev_c[sel])
-    bank.prev_s[sel] = np.where(keep, Sn, bank.prev_s[sel])
-    bank.prev_t[sel] = np.where(applied, t_now, pt)
+    if applied.all():
+        bank.prev_c[sel], bank.prev_s[sel], bank.prev_t[sel] = C, Sn, t_now
+    else:
+        keep = applied[:, None]
+        bank.prev_c[sel] = np.where(keep, C, pc)
+        bank.prev_s[sel] = np.where(keep, Sn, ps)
+        bank.prev_t[sel] = np.where(applied, t_now, pt)
     bank.X[sel], bank.P[sel] = X, P
     return y, S, nis, applied
