@@ -170,14 +170,22 @@ class DraftCore:
         if not pending:
             return
         self._pending = {}
-        names = sorted(pending, key=lambda n: self.filters[n].row)  # the bank's order
-        marks = [self.filters[n] for n in names]
+        filters = self.filters
+        names = list(pending)
+        marks = [filters[n] for n in names]
+        rows = [m.row for m in marks]
+        if any(a > b for a, b in zip(rows, rows[1:])):  # the bank's order (the frames' own, mostly)
+            names = sorted(names, key=lambda n: filters[n].row)
+            marks = [filters[n] for n in names]
         ts = [pending[n][0] for n in names]
         zs = [pending[n][1] for n in names]
-        ys, Ss, _, applied = step_marks(marks, ts, zs, [self.noise[n].var for n in names],
-                                        [self._speed(t) for t in ts], self.cfg.gate)
-        for i, name in enumerate(names):
-            self._judged(name, ts[i], zs[i], float(ys[i]), float(Ss[i]), bool(applied[i]))
+        t0 = ts[0]
+        speed = self._speed(t0)  # (one instant's readings, mostly: one speed for all)
+        speeds = [speed if t == t0 else self._speed(t) for t in ts]
+        ys, Ss, _, applied = step_marks(marks, ts, zs, [self.noise[n].var for n in names], speeds, self.cfg.gate)
+        judged = self._judged
+        for name, t, z, y, S, ok in zip(names, ts, zs, ys.tolist(), Ss.tolist(), applied.tolist()):
+            judged(name, t, z, y, S, ok)
 
     def _judged(self, name: str, t: float, z: float, y: float, S: float, applied: bool) -> None:
         """What a filtered reading says of its mark: jumped, gated, or used."""
