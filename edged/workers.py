@@ -398,9 +398,10 @@ class WorkerHost:
         """Queue the inputs in (number, producer rank) order. They nearly always come
         in that order already (measurements straight from the router): appended, with
         no heap of the whole backlog (at a replay's rate the backlog is tens of
-        thousands, and a heap's pop cost a few µs each). An estimate numbered after
-        the measurement it was made from arrives late: then one merge of the two
-        sorted runs (Python's sort is linear on runs)."""
+        thousands, and a heap's pop cost a few µs each). An upstream estimate
+        carries the number of the record it was made from, so it arrives after
+        records numbered later: then one merge of the two sorted runs (Python's sort
+        is linear on runs)."""
         ranks = self._ranks
         n = self._n
         new = [(seq, ranks.get(rec.route_key, _MEASUREMENT_RANK) if ranks else _MEASUREMENT_RANK, next(n), rec)
