@@ -41,6 +41,7 @@ RMS of the wave part Σ c_k over `amplitude_window` seconds (the amplitude of a 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -82,6 +83,7 @@ class WaveBank:
         # the resonators' diagonal in a flattened P: a strided slice (a view, not a gather)
         self.wave_diag = slice(w0 * (self.n + 1), None, self.n + 1)
         self._cache: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._rot: dict[float, tuple[np.ndarray, np.ndarray]] = {}  # see rotation()
         # every mark's state, one row each (`WaveMark.row`): stacked, so that a reading
         # from each of six marks is one numpy call, not six (`step_marks`)
         self.X = np.zeros((0, self.n))
@@ -134,6 +136,20 @@ class WaveBank:
         got = self._cache[key] = (F, np.repeat(unit, 2), level_q)
         return got
 
+    def rotation(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Each resonator's a cos(ω dt) and a sin(ω dt), as in F(dt): the compiled
+        predict's view of F (`kernel.predict_marks`)."""
+        key = round(dt, 6)
+        got = self._rot.get(key)
+        if got is None:
+            F = self.transition(dt)[0]
+            w0 = self.W0
+            idx = np.arange(w0, self.n, 2)
+            if len(self._rot) > 64:
+                self._rot.clear()
+            got = self._rot[key] = (F[idx, idx].copy(), F[idx + 1, idx].copy())
+        return got
+
     def observe_phase(self, energy: np.ndarray, rate_error: np.ndarray) -> None:
         """A mark's resonators turned at ω + rate_error (rad/s) with this energy (or
         several marks', one row each)."""
@@ -155,6 +171,7 @@ class WaveBank:
         self._err[:] = 0.0
         self._wsum[:] = 0.0
         self._cache.clear()
+        self._rot.clear()
 
     def level_q(self, dt: float) -> np.ndarray:
         q = self.q_jerk
@@ -350,6 +367,10 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
     # every mark once, in the bank's order (the core sends them so): its arrays as they
     # are; otherwise the rows taken out and put back
     sel: slice | list[int] = slice(None) if B == bank.rows and rows == list(range(B)) else rows
+    if sel.__class__ is slice and _kernel() is not None:
+        dt0 = ts[0] - marks[0].t
+        if dt0 > 0.0 and all(t - m.t == dt0 for t, m in zip(ts, marks)):
+            return _step_compiled(bank, marks, ts, zs, Rs, speeds, gate, dt0)
     X, P = bank.X[sel], bank.P[sel]
     dts = [max(t - m.t, 0.0) for t, m in zip(ts, marks)]
     # -- predict: x ← F x, P ← F P Fᵀ + Q (the level's jerk, κ's walk, each resonator's drive)
@@ -418,4 +439,50 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         bank.prev_s[sel] = np.where(keep, Sn, ps)
         bank.prev_t[sel] = np.where(applied, t_now, pt)
     bank.X[sel], bank.P[sel] = X, P
+    return y, S, nis, applied
+
+
+#: kernel.py once imported (False: not yet; None: numba missing, numpy only). Imported
+#: at the first step, not with this module: a daemon whose draft estimator runs in its
+#: own process never loads numba (0.3 s of start-up) in the main one.
+_KERNEL: Any = False
+
+
+def _kernel() -> Any:
+    global _KERNEL
+    if _KERNEL is False:
+        try:
+            from . import kernel
+        except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
+            kernel = None
+        _KERNEL = kernel
+    return _KERNEL
+
+
+def _step_compiled(bank: WaveBank, marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list[float],
+                   speeds: list[tuple[float | None, float]], gate: float | None,
+                   dt: float) -> tuple[np.ndarray, ...]:
+    """`step_marks` for every mark of the bank in its order, one step size dt > 0: the
+    same equations, compiled (`kernel.py`), on the bank's arrays in place."""
+    B = len(marks)
+    _, unit, level_q = bank.transition(dt)
+    cs, sn = bank.rotation(dt)
+    du = np.array([u - m.u if u is not None and m.u is not None and u != m.u else 0.0
+                   for m, (u, _) in zip(marks, speeds)])
+    X, P = bank.X, bank.P
+    _kernel().predict_marks(X, P, cs, sn, dt, level_q, bank.var2 * unit, du)
+    due: list[int] = []
+    for i, (m, t, (u, u_rate)) in enumerate(zip(marks, ts, speeds)):
+        m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
+        m.t = t
+        if t - m._sampled >= SAMPLE_STEP:
+            due.append(i)
+    if due:
+        sample([marks[i] for i in due], [marks[i].t - marks[i]._sampled for i in due],
+               X if len(due) == B else X[due])
+    y, S, nis = np.empty(B), np.empty(B), np.empty(B)
+    applied = np.empty(B, dtype=np.bool_)
+    _kernel().update_marks(X, P, np.array(zs), np.array(Rs), math.inf if gate is None else gate,
+                         np.array(ts), bank.prev_c, bank.prev_s, bank.prev_t, bank.omega,
+                         bank._err, bank._wsum, y, S, nis, applied)
     return y, S, nis, applied
