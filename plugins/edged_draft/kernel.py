@@ -47,14 +47,14 @@ def _compiled(fn):  # type: ignore[no-untyped-def]
 
 
 @_compiled
-def predict_marks(X: np.ndarray, P: np.ndarray, cs: np.ndarray, sn: np.ndarray, dt: float,
+def predict_marks(X: np.ndarray, P: np.ndarray, cs: np.ndarray, sn: np.ndarray, dt: float, h2: float,
                   level_q: np.ndarray, qd: np.ndarray, du: np.ndarray) -> None:  # pragma: no cover - compiled
     """In place, every row b of X (B × n) and P (B × n × n): the predict over dt, then
-    the squat's Δu (du[b], 0 for none). cs, sn: a_i cos(ω_i dt), a_i sin(ω_i dt); qd:
-    each resonator state's drive variance over dt (B × 2k)."""
+    the squat's Δu (du[b], 0 for none). dt, h2: F's dt and dt²/2 (as the bank made
+    F); cs, sn: a_i cos(ω_i dt), a_i sin(ω_i dt); qd: each resonator state's drive
+    variance over dt (B × 2k)."""
     B, n = X.shape
     k = (n - 4) // 2
-    h2 = 0.5 * dt * dt
     for b in range(B):
         x = X[b]
         p = P[b]

@@ -467,12 +467,12 @@ def _step_compiled(bank: WaveBank, marks: list[WaveMark], ts: list[float], zs: l
     """`step_marks` for every mark of the bank in its order, one step size dt > 0: the
     same equations, compiled (`kernel.py`), on the bank's arrays in place."""
     B = len(marks)
-    _, unit, level_q = bank.transition(dt)
+    F, unit, level_q = bank.transition(dt)  # (made for the first dt of its rounded key)
     cs, sn = bank.rotation(dt)
     du = np.array([u - m.u if u is not None and m.u is not None and u != m.u else 0.0
                    for m, (u, _) in zip(marks, speeds)])
     X, P = bank.X, bank.P
-    _kernel().predict_marks(X, P, cs, sn, dt, level_q, bank.var2 * unit, du)
+    _kernel().predict_marks(X, P, cs, sn, float(F[0, 1]), float(F[0, 2]), level_q, bank.var2 * unit, du)
     due: list[int] = []
     for i, (m, t, (u, u_rate)) in enumerate(zip(marks, ts, speeds)):
         m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
