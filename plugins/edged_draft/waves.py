@@ -347,6 +347,23 @@ def sample(marks: list[WaveMark], dts: list[float], X: np.ndarray) -> None:
         m._sampled = m.t
 
 
+def _moved(marks: list[WaveMark], ts: list[float], dts: list[float], speeds: list[tuple[float | None, float]],
+           X: np.ndarray) -> None:
+    """After a stacked predict (X: the marks' predicted states, one row each): each
+    mark's time and speed, and the samples that are due (`sample`). A reading at the
+    mark's own time (dt 0) made no step, as in `WaveMark.predict`."""
+    due: list[int] = []
+    for i, (m, t, dt, (u, u_rate)) in enumerate(zip(marks, ts, dts, speeds)):
+        if dt > 0.0:
+            m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
+            m.t = t
+            if t - m._sampled >= SAMPLE_STEP:
+                due.append(i)
+    if due:
+        sample([marks[i] for i in due], [marks[i].t - marks[i]._sampled for i in due],
+               X if len(due) == len(marks) else X[due])
+
+
 def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list[float],
                speeds: list[tuple[float | None, float]], gate: float | None) -> tuple[np.ndarray, ...]:
     """One reading for each of several marks of one bank (each mark at most once): the
@@ -397,16 +414,7 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         X[:, 0] += d * X[:, 3]
         P[:, 0, :] += d[:, None] * P[:, 3, :]
         P[:, :, 0] += d[:, None] * P[:, :, 3]
-    due: list[int] = []
-    for i, (m, t, dt, (u, u_rate)) in enumerate(zip(marks, ts, dts, speeds)):
-        if dt > 0.0:  # (a reading at the mark's own time: no step, as in `predict`)
-            m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
-            m.t = t
-            if t - m._sampled >= SAMPLE_STEP:
-                due.append(i)
-    if due:
-        sample([marks[i] for i in due], [marks[i].t - marks[i]._sampled for i in due],
-               X if len(due) == B else X[due])
+    _moved(marks, ts, dts, speeds, X)
     # -- update: z = H x + v
     H = bank.H
     PHt = P @ H
@@ -473,15 +481,7 @@ def _step_compiled(bank: WaveBank, marks: list[WaveMark], ts: list[float], zs: l
                    for m, (u, _) in zip(marks, speeds)])
     X, P = bank.X, bank.P
     _kernel().predict_marks(X, P, cs, sn, float(F[0, 1]), float(F[0, 2]), level_q, bank.var2 * unit, du)
-    due: list[int] = []
-    for i, (m, t, (u, u_rate)) in enumerate(zip(marks, ts, speeds)):
-        m.u, m.u_rate = u, (u_rate if u is not None else 0.0)
-        m.t = t
-        if t - m._sampled >= SAMPLE_STEP:
-            due.append(i)
-    if due:
-        sample([marks[i] for i in due], [marks[i].t - marks[i]._sampled for i in due],
-               X if len(due) == B else X[due])
+    _moved(marks, ts, [dt] * B, speeds, X)
     y, S, nis = np.empty(B), np.empty(B), np.empty(B)
     applied = np.empty(B, dtype=np.bool_)
     _kernel().update_marks(X, P, np.array(zs), np.array(Rs), math.inf if gate is None else gate,
