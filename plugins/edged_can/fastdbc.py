@@ -40,9 +40,10 @@ def unpacker(msg: Message) -> Callable[[bytes], dict[str, Any]] | None:
     the message's length; None when the message's layout is not one struct can read."""
     if msg.is_multiplexed() or msg.is_container or not msg.signals:
         return None
+    order = sorted(msg.signals, key=lambda s: s.start)  # as the bytes hold them
     fmt = "<"
     pos = 0  # the next byte the format reads
-    for sig in sorted(msg.signals, key=lambda s: s.start):
+    for sig in order:
         code = _code(sig)
         if sig.byte_order != "little_endian" or code is None or sig.start % 8 or sig.start // 8 < pos:
             return None
@@ -52,7 +53,6 @@ def unpacker(msg: Message) -> Callable[[bytes], dict[str, Any]] | None:
         return None
     fmt += "x" * (msg.length - pos)
     layout = struct.Struct(fmt)
-    order = sorted(msg.signals, key=lambda s: s.start)
     index = {s.name: i for i, s in enumerate(order)}
     # (name, place in the unpacked tuple, how, scale, offset, choices or conversion):
     # the signals in the message's order, as cantools fills its dict. How: 0 as it is,
