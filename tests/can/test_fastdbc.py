@@ -69,6 +69,11 @@ def test_frames_struct_cannot_read_are_left_to_cantools_and_the_rest_agree():
     assert unpacker(db.get_message_by_name("Packed")) is None  # bit fields
     assert unpacker(db.get_message_by_name("Motorola")) is None  # big-endian
     assert unpacker(db.get_message_by_name("Muxed")) is None  # multiplexed
+    # two signals sharing a byte: cantools refuses them unless loaded with strict=False
+    loose = cantools.database.load_string(
+        'VERSION ""\nBU_: A\nBO_ 104 Overlap: 4 A\n SG_ word : 0|16@1+ (1,0) [0|65535] "" A\n'
+        ' SG_ high : 8|16@1+ (1,0) [0|65535] "" A\n', "dbc", strict=False)
+    assert unpacker(loose.get_message_by_name("Overlap")) is None
     gappy = db.get_message_by_name("Gappy")
     fast = unpacker(gappy)
     assert fast is not None
