@@ -123,6 +123,10 @@ class EstimatorConfig(PluginConfig):
 class OutputConfig(PluginConfig):
     #: Records queued for the output before new ones are dropped (counted `overflow`).
     queue_size: int = Field(100_000, ge=1, le=10_000_000)
+    #: Where the output runs: in the event loop, or in a process of its own
+    #: (`edged.outputproc`: its work then uses another core, and a slow disk or peer
+    #: stalls only it). The plugin and its configuration must then be picklable.
+    worker: Literal["loop", "process"] = "loop"
 
 
 @dataclass

@@ -344,8 +344,8 @@ class Replayer:
             # its own time: nothing here holds the GIL its helper thread needs)
             await rt.worker_progress(wlimit, WORKER_WAIT)
         limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in rt.outputs), default=0)
-        while rt.outputs and rt.output_backlog() > limit:
-            await asyncio.sleep(0)
+        while rt.outputs and (rt.output_backlog() > limit or rt.outputs_blocked()):
+            await rt.output_progress(limit, WORKER_WAIT)
 
 
 class _QuietGC:

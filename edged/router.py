@@ -27,7 +27,7 @@ log = logging.getLogger("edged.router")
 class BoundedQueue:
     """A single-consumer bounded FIFO for the event loop; `put` never waits."""
 
-    __slots__ = ("maxsize", "_items", "_waiter")
+    __slots__ = ("maxsize", "_items", "_waiter", "_woken")
 
     def __init__(self, maxsize: int) -> None:
         if maxsize < 1:
@@ -35,6 +35,17 @@ class BoundedQueue:
         self.maxsize = maxsize
         self._items: deque[Any] = deque()
         self._waiter: asyncio.Future[None] | None = None
+        self._woken = False
+
+    def wake(self) -> None:
+        """Make the consumer's `get_batch` return now, empty if nothing is queued
+        (something else needs its attention: a process output's failed write)."""
+        self._woken = True
+        w = self._waiter
+        if w is not None:
+            self._waiter = None
+            if not w.done():
+                w.set_result(None)
 
     def __len__(self) -> int:
         return len(self._items)
@@ -56,9 +67,13 @@ class BoundedQueue:
         return True
 
     async def get_batch(self, max_items: int = 1024) -> list[Any]:
-        """Wait for at least one item, then take up to `max_items`."""
+        """Wait for at least one item, then take up to `max_items` (or, after
+        `wake`, return what there is, maybe nothing)."""
         items = self._items
         while not items:
+            if self._woken:
+                self._woken = False
+                return []
             w = asyncio.get_running_loop().create_future()
             self._waiter = w
             try:

@@ -28,6 +28,10 @@ class McapConfig(OutputConfig):
     """
 
     type: str = "mcap"
+    #: A recorder runs in a process of its own by default: encoding, chunking,
+    #: compressing and fsyncing every record is as much work as decoding it, and a
+    #: disk that stalls must not hold the daemon's loop.
+    worker: Literal["loop", "process"] = "process"
     path: Path | None = None
     directory: Path | None = None
     #: Start a new file when the current one reaches this size (bytes).

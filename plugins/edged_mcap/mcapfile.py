@@ -58,6 +58,18 @@ class McapFile:
         fast = FastMessages.attach(self._writer)
         #: add_message(channel_id, log_ns, data, pub_ns): the fast path when it applies.
         self.add_message = fast.add if fast is not None else self._writer.add_message
+        #: add_batch([(channel_id, log_ns, data), ...], pub_ns): all of them, in order.
+        self.add_batch = fast.add_batch if fast is not None else self._add_each
+
+    def _add_each(self, messages: list[tuple[int, int, bytes]], publish_time: int) -> int:
+        add = self._writer.add_message
+        for i, (cid, log, data) in enumerate(messages):
+            try:
+                add(cid, log, data, publish_time)
+            except Exception as exc:
+                exc.added = i  # type: ignore[attr-defined]
+                raise
+        return len(messages)
 
     def start(self) -> None:
         """Write the header and metadata, and push them out at once: a disk without

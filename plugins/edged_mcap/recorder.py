@@ -94,6 +94,17 @@ def _write_error_state(exc: OSError) -> str:
     return DISK_FULL if exc.errno in (errno.ENOSPC, errno.EDQUOT) else FAILED
 
 
+class _WriteFailed(Exception):
+    """Adding a batch's messages failed after `added` of them; the first record
+    whose messages were lost is `first_lost`."""
+
+    def __init__(self, error: OSError, added: int, first_lost: int) -> None:
+        super().__init__(str(error))
+        self.error = error
+        self.added = added
+        self.first_lost = first_lost
+
+
 class McapRecorder(OutputPlugin):
     """Records everything the router carries into MCAP files."""
 
@@ -141,30 +152,32 @@ class McapRecorder(OutputPlugin):
             return
         pub = to_ns(self.ctx.clock.now())
         channels = f.channels
-        add = f.add_message
+        # The batch's messages go to the file in one call (`add_batch`); `owner[j]` is
+        # the record message j came from (what a failed write lost is counted by it).
+        msgs: list[tuple[int, int, bytes]] = []
+        owner: list[int] = []
         last_t: Any = None
         log = 0
-        n = 0
-        for i, rec in enumerate(batch):
-            try:
-                outs = encode(rec)
-            except KeyError:
-                health.count("rejected.unknown_record")
-                health.error(f"not a record edged knows: {type(rec).__name__}")
-                continue
-            except (AttributeError, TypeError, ValueError) as exc:  # e.g. raw data that is not bytes
-                health.count("rejected.malformed")
-                health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
-                continue
-            t = getattr(rec, "t", None)
-            if t != last_t or t.__class__ is not last_t.__class__:
-                if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
-                    health.count("rejected.bad_time")
-                    health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
+        try:
+            for i, rec in enumerate(batch):
+                try:
+                    outs = encode(rec)
+                except KeyError:
+                    health.count("rejected.unknown_record")
+                    health.error(f"not a record edged knows: {type(rec).__name__}")
                     continue
-                log = to_ns(t)
-                last_t = t
-            try:
+                except (AttributeError, TypeError, ValueError) as exc:  # e.g. raw data that is not bytes
+                    health.count("rejected.malformed")
+                    health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
+                    continue
+                t = getattr(rec, "t", None)
+                if t != last_t or t.__class__ is not last_t.__class__:
+                    if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
+                        health.count("rejected.bad_time")
+                        health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
+                        continue
+                    log = to_ns(t)
+                    last_t = t
                 for topic, schema, payload in outs:
                     try:
                         data, cleaned = dumps(payload)
@@ -176,16 +189,36 @@ class McapRecorder(OutputPlugin):
                         health.count("nonfinite_as_null")
                     cid = channels.get(topic)
                     if cid is None:
+                        # A new channel's record goes where the file has got to:
+                        # after the messages before it, as one add at a time did.
+                        self._add(f, msgs, owner, pub)
                         cid = f.channel(topic, schema)
-                    add(cid, log, data, pub)
-                    n += 1
-            except OSError as exc:
-                self._pending += n
-                self._fail(exc)
-                health.count(f"dropped.{self._stopped}", len(batch) - i)
-                return
-        self._pending += n
+                    msgs.append((cid, log, data))
+                    owner.append(i)
+            self._add(f, msgs, owner, pub)
+        except _WriteFailed as failed:
+            self._pending += failed.added
+            self._fail(failed.error)
+            health.count(f"dropped.{self._stopped}", len(batch) - failed.first_lost)
+            return
+        except OSError as exc:  # registering a channel
+            self._fail(exc)
+            health.count(f"dropped.{self._stopped}", len(batch) - (owner[0] if owner else i))
+            return
         self._maybe_rotate()
+
+    def _add(self, f: McapFile, msgs: list[tuple[int, int, bytes]], owner: list[int], pub: int) -> None:
+        """Add the messages collected so far to the file, and forget them."""
+        if not msgs:
+            return
+        try:
+            f.add_batch(msgs, pub)
+        except OSError as exc:
+            k = getattr(exc, "added", 0)
+            raise _WriteFailed(exc, k, owner[k] if k < len(owner) else owner[-1] + 1) from exc
+        self._pending += len(msgs)
+        msgs.clear()
+        owner.clear()
 
     def flush(self) -> None:
         now = self.ctx.clock.monotonic()

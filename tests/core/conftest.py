@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from core_dummies import ChainEstimator, DummyInput, DummyLog, ListOutput, SumEstimator, MeanEstimator
+from core_dummies import ChainEstimator, DummyInput, DummyLog, FileOutput, ListOutput, MeanEstimator, SumEstimator
 
 from edged.registry import Registry
 
@@ -22,6 +22,7 @@ def registry() -> Registry:
     r.register("estimators", "chain", ChainEstimator)
     r.register("estimators", "mean", MeanEstimator)
     r.register("outputs", "list", ListOutput)
+    r.register("outputs", "file", FileOutput)
     return r
 
 

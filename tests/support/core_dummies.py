@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import os
 from typing import Any, BinaryIO, Iterator
 
 from edged.plugin import (
@@ -254,3 +255,51 @@ class ListOutput(OutputPlugin):
         self.events.append("close")
 
 
+
+
+class FileOutputConfig(OutputConfig):
+    #: One line per call and record, flushed at once (the test reads it after).
+    path: str
+    #: A record with this time makes the process exit at once (a crash).
+    crash_at: float | None = None
+    #: A record with this time makes `write` raise (the plugin fails, the process lives).
+    raise_at: float | None = None
+
+
+class FileOutput(OutputPlugin):
+    """An output meant for `worker = "process"`: what it is given is seen in its file,
+    its health and its log, from whichever process it runs in."""
+
+    Config = FileOutputConfig
+
+    def _line(self, text: str) -> None:
+        with open(self.config.path, "a") as f:
+            f.write(f"{os.getpid()} {text}\n")
+
+    async def open(self) -> None:
+        self._line("open")
+        self.ctx.health.set_state("writing")
+        self.ctx.health.info["pid"] = os.getpid()
+        self.ctx.log.info("event=file-output-open pid=%d", os.getpid())
+
+    def write(self, batch: list[Any]) -> None:
+        for rec in batch:
+            if rec.t == self.config.crash_at:
+                os._exit(3)
+            if rec.t == self.config.raise_at:
+                self.ctx.health.error(f"refused t={rec.t}")
+                raise ValueError(f"record at t={rec.t} refused")
+            self._line(f"write {type(rec).__name__} {rec.t!r} {self.ctx.clock.now()!r}")
+            self.ctx.health.count("seen")
+
+    def flush(self) -> None:
+        self._line("flush")
+
+    def rotate(self) -> None:
+        self._line("rotate")
+
+    def status(self) -> dict[str, Any]:
+        return {"lines_pid": os.getpid()}
+
+    async def close(self) -> None:
+        self._line("close")

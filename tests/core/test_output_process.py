@@ -1,0 +1,193 @@
+"""An output in a process of its own (`worker = "process"`): the same contract as in the
+event loop, its health and log mirrored, a crash of its process counted and survived."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+from pathlib import Path
+
+import pytest
+
+from edged.clock import ManualClock
+from edged.config import parse_config
+from edged.plugin import OutputPlugin
+from edged.records import Measurement
+from edged.runtime import Runtime
+from edged.supervisor import RestartPolicy
+
+SAFETY = 60.0  # seconds: only a broken output ever waits this long
+
+
+async def _no_wait(delay: float) -> None:
+    await asyncio.sleep(0)
+
+
+def _runtime(registry, path: Path, **extra) -> tuple[Runtime, ManualClock]:
+    out = {"type": "file", "worker": "process", "path": str(path), **extra}
+    clock = ManualClock(100.0)
+    rt = Runtime(parse_config({"outputs": {"f": out}}, registry), registry, clock,
+                 restart=RestartPolicy(initial=0.01), sleep=_no_wait)
+    return rt, clock
+
+
+async def wait_for(cond, timeout: float = SAFETY) -> None:
+    loop = asyncio.get_running_loop()
+    end = loop.time() + timeout
+    while not cond():
+        if loop.time() > end:
+            raise AssertionError("condition not reached")
+        await asyncio.sleep(0.001)
+
+
+def _m(t: float) -> Measurement:
+    return Measurement("heading", "gyro", t, {"heading": 1.0})
+
+
+def _lines(path: Path) -> list[tuple[int, list[str]]]:
+    out = []
+    for line in path.read_text().splitlines():
+        pid, *rest = line.split()
+        out.append((int(pid), rest))
+    return out
+
+
+def test_records_reach_the_process_whole_in_order_with_the_clock_and_its_health_comes_back(
+    registry, tmp_path, caplog
+):
+    path = tmp_path / "out.txt"
+    times = [100.0 + 0.01 * i for i in range(3000)]
+
+    async def main():
+        rt, clock = _runtime(registry, path)
+        await rt.start()
+        host = rt.outputs[0]
+        await wait_for(lambda: host.opened)
+        for k in range(0, len(times), 100):
+            for t in times[k : k + 100]:
+                clock.set(t)
+                rt.router.publish(_m(t))
+            await asyncio.sleep(0)  # (the host takes what is queued: one batch per stretch)
+        await wait_for(lambda: host.health.counters.get("seen", 0) == len(times))
+        rt.tick()  # a flush
+        rt.rotate()
+        await wait_for(lambda: host.plugin.status() is not None and host.health.info.get("pid") is not None)
+        snap = rt.health_snapshot()["outputs"]["f"]
+        await rt.stop()
+        return snap
+
+    with caplog.at_level(logging.INFO):
+        snap = asyncio.run(main())
+    lines = _lines(path)
+    pids = {pid for pid, _ in lines}
+    assert len(pids) == 1 and os.getpid() not in pids
+    (child,) = pids
+    events = [rest[0] for _, rest in lines]
+    assert events[0] == "open" and events[-1] == "close"
+    assert "flush" in events and "rotate" in events
+    writes = [rest for _, rest in lines if rest[:2] == ["write", "Measurement"]]
+    assert [float(t) for _, _, t, _ in writes] == times
+    # each record was handed over at a moment of the parent's clock at or after its own time
+    published = set(times)
+    assert all(float(now) >= float(t) and float(now) in published for _, _, t, now in writes)
+    # the child's health, mirrored: its counter, its state, its info and its status
+    assert snap["counters"]["seen"] == len(times) and snap["counters"]["written"] == len(times)
+    assert snap["state"] == "writing"
+    assert snap["info"]["pid"] == child and snap["info"]["lines_pid"] == child
+    # and its log, re-emitted in the parent under the plugin's logger
+    assert any(r.name == "edged.f" and f"pid={child}" in r.getMessage() for r in caplog.records)
+
+
+def test_a_crashed_process_is_counted_restarted_and_takes_the_records_after(registry, tmp_path):
+    path = tmp_path / "out.txt"
+
+    async def main():
+        rt, clock = _runtime(registry, path, crash_at=100.5)
+        await rt.start()
+        host = rt.outputs[0]
+        await wait_for(lambda: host.opened)
+        first = host.plugin.pid
+        for t in (100.0, 100.1, 100.2):
+            rt.router.publish(_m(t))
+        await wait_for(lambda: host.health.counters.get("seen", 0) == 3)
+        rt.router.publish(_m(100.5))  # the process exits at once (code 3)
+        await wait_for(lambda: host.health.restarts >= 1 and host.opened and host.plugin.pid not in (None, first))
+        for t in (100.6, 100.7):
+            rt.router.publish(_m(t))
+        await wait_for(lambda: host.health.counters.get("seen", 0) == 5)
+        h = host.health
+        counters, restarts, error = dict(h.counters), h.restarts, h.last_error
+        await rt.stop()
+        return counters, restarts, error
+
+    counters, restarts, error = asyncio.run(main())
+    assert counters["dropped.process_died"] == 1
+    assert restarts == 1
+    assert "exit code 3" in error
+    lines = _lines(path)
+    assert len({pid for pid, rest in lines if rest == ["open"]}) == 2  # a second process
+    assert [float(rest[2]) for _, rest in lines if rest[:2] == ["write", "Measurement"]] == [
+        100.0, 100.1, 100.2, 100.6, 100.7
+    ]
+
+
+def test_a_plugin_raising_in_its_process_is_reported_with_its_message(registry, tmp_path):
+    path = tmp_path / "out.txt"
+
+    async def main():
+        rt, _ = _runtime(registry, path, raise_at=100.2)
+        await rt.start()
+        host = rt.outputs[0]
+        await wait_for(lambda: host.opened)
+        rt.router.publish(_m(100.2))
+        await wait_for(lambda: host.health.restarts >= 1)
+        error = host.health.last_error
+        await rt.stop()
+        return error
+
+    assert "record at t=100.2 refused" in asyncio.run(main())
+
+
+def test_stopped_while_its_process_starts_it_still_writes_what_was_queued(registry, tmp_path):
+    path = tmp_path / "out.txt"
+
+    async def main():
+        rt, _ = _runtime(registry, path)
+        await rt.start()
+        for i in range(10):
+            rt.router.publish(_m(100.0 + i))
+        await rt.stop()  # (the child is most likely still importing)
+
+    asyncio.run(main())
+    writes = [float(rest[2]) for _, rest in _lines(path) if rest[:2] == ["write", "Measurement"]]
+    assert writes == [100.0 + i for i in range(10)]
+
+
+def test_an_output_that_cannot_be_pickled_runs_in_the_loop_and_says_so(registry, tmp_path, caplog):
+    class LocalOutput(OutputPlugin):  # made inside a function: no process can import it
+        def write(self, batch):
+            self.got = getattr(self, "got", []) + batch
+
+    registry.register("outputs", "local", LocalOutput)
+    cfg = parse_config({"outputs": {"l": {"type": "local", "worker": "process"}}}, registry)
+    with caplog.at_level(logging.WARNING):
+        rt = Runtime(cfg, registry, ManualClock(100.0))
+    assert rt.outputs[0].plugin.__class__ is LocalOutput
+    assert any("event=output-in-loop output=l" in r.getMessage() for r in caplog.records)
+
+    async def main():
+        await rt.start()
+        rt.router.publish(_m(100.0))
+        await rt.stop()
+
+    asyncio.run(main())
+    assert [r.t for r in rt.outputs[0].plugin.got] == [100.0]
+
+
+@pytest.mark.parametrize("bad", ["thread", 3])
+def test_worker_takes_only_loop_or_process(registry, tmp_path, bad):
+    from edged.config import ConfigError
+
+    with pytest.raises(ConfigError, match="outputs.f"):
+        parse_config({"outputs": {"f": {"type": "file", "path": str(tmp_path / "x"), "worker": bad}}}, registry)
