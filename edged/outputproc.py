@@ -6,7 +6,7 @@ In a process of its own it uses the machine's second core and stalls only itself
 
 The parent (`ProcessOutput`, which the `OutputHost` uses in place of the plugin) starts
 `serve` in a fresh interpreter (multiprocessing "spawn", as the process workers) and
-sends it, in order, through one helper thread, the calls the plugin contract has:
+sends it, in order (pickled in the loop, written by one thread, answered through another), the calls the plugin contract has:
 `("open",)`, `("write", batch)`, `("flush",)`, `("rotate",)`, `("ready", timeout)`,
 `("close",)`, `("stop",)`. Each message carries the parent clock's `now()` and
 `monotonic()`, which the child's clock then reads (`MirroredClock`): the plugin sees
