@@ -39,7 +39,7 @@ from typing import Any
 from .clock import Clock
 from .health import ComponentHealth
 
-__all__ = ["ProcessOutput", "MirroredClock", "serve", "OutputProcessDied"]
+__all__ = ["ProcessOutput", "MirroredClock", "serve", "OutputProcessDied", "sigkill"]
 
 log = logging.getLogger("edged.outputproc")
 
@@ -408,12 +408,16 @@ class ProcessOutput:
 
     def kill_now(self) -> None:
         """From the event loop, when closing did not end in time: the child goes at once."""
-        p = self.process
-        if p is not None and p.pid is not None:
-            try:
-                os.kill(p.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+        sigkill(self.process)
+
+
+def sigkill(p: Any) -> None:
+    """SIGKILL a child process at once, if it is there (without waiting for it)."""
+    if p is not None and p.pid is not None:
+        try:
+            os.kill(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def _stop(p: Any, conn: Any, rx: threading.Thread | None, writer: ThreadPoolExecutor) -> None:

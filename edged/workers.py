@@ -45,6 +45,7 @@ from .health import ComponentHealth
 from .plugin import EstimatorPlugin
 from .records import Estimate, HealthRecord
 from .router import Router
+from .outputproc import sigkill
 from .workerproc import core_health, run_calls, serve
 
 __all__ = ["WorkerHost", "LoopRunner", "ProcessRunner", "CoreFailed", "MAX_CALLS", "MAX_CATCHUP_TICKS"]
@@ -259,12 +260,7 @@ class ProcessRunner:
     def kill_now(self) -> None:
         """From the event loop, when a batch did not come back in time at shutdown:
         the child goes at once (the helper thread's wait then ends)."""
-        p = self.process
-        if p is not None and p.pid is not None:
-            try:
-                os.kill(p.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+        sigkill(self.process)
 
     def close(self) -> None:
         """Last words at shutdown: the child and the helper thread go."""

@@ -9,6 +9,7 @@ import os
 from pathlib import Path
 
 import pytest
+from waiting import wait_for
 
 from edged.clock import ManualClock
 from edged.config import parse_config
@@ -30,15 +31,6 @@ def _runtime(registry, path: Path, **extra) -> tuple[Runtime, ManualClock]:
     rt = Runtime(parse_config({"outputs": {"f": out}}, registry), registry, clock,
                  restart=RestartPolicy(initial=0.01), sleep=_no_wait)
     return rt, clock
-
-
-async def wait_for(cond, timeout: float = SAFETY) -> None:
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while not cond():
-        if loop.time() > end:
-            raise AssertionError("condition not reached")
-        await asyncio.sleep(0.001)
 
 
 def _m(t: float) -> Measurement:

@@ -8,6 +8,7 @@ import signal
 from typing import Any
 
 import pytest
+from waiting import wait_for
 from core_dummies import ListOutput
 
 from edged.clock import ManualClock
@@ -31,15 +32,6 @@ async def settle(rt: Runtime, timeout: float = SAFETY) -> None:
     while any(w.watermark() < rt.router.seq for w in rt.workers):
         if loop.time() > end:
             raise AssertionError("workers did not catch up")
-        await asyncio.sleep(0.001)
-
-
-async def wait_for(cond, timeout: float = SAFETY) -> None:
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while not cond():
-        if loop.time() > end:
-            raise AssertionError("condition not reached")
         await asyncio.sleep(0.001)
 
 
