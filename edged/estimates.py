@@ -9,7 +9,7 @@ The MCAP channel schemas, the Zenoh/MCAP payload (`estimate_to_json`) and the do
 
 An estimate is published under its estimator instance's name (`[estimators.stw_paper]`
 -> `est/stw_paper`); its *kind* (`stw`) says which fields it has. Every kind has the
-common fields `t`, `kind`, `stale` and `age`.
+common fields `t`, `kind`, `stale`, `age` and `converging`.
 """
 
 from __future__ import annotations
@@ -126,12 +126,15 @@ def _n(name: str, unit: str, doc: str, **kw: Any) -> EstField:
 
 
 #: Fields every estimate has. `t` is the record's time and always wins over a value
-#: of the same name; `stale`/`age` are set by the worker host, not by the core.
+#: of the same name; `stale`/`age` are set by the worker host, not by the core;
+#: `converging` by the core.
 COMMON_FIELDS: tuple[EstField, ...] = (
     _f("t", "s", "time the estimate is valid for, UTC seconds (UNIX epoch)"),
     _f("kind", "name", "estimate kind (stw, manoeuvre, draft): which fields follow", type=STRING),
     _f("stale", "bool", "true when the inputs stopped for longer than the estimator's stale_after", type=BOOL),
     _f("age", "s", "data time since the newest input the estimator received"),
+    _f("converging", "bool", "true while the filter has not converged (after a start or a restart): "
+       "its σ says how far to trust it", type=BOOL),
 )
 
 ESTIMATE_KINDS: dict[str, EstimateKind] = {
@@ -233,11 +236,12 @@ ESTIMATE_KINDS: dict[str, EstimateKind] = {
 def estimate_to_json(e: Estimate) -> dict[str, Any]:
     """The JSON object of an estimate, the same for every output (DESIGN §6, §7).
 
-    `{"t", "kind", "stale", "age", <values>}`; the record's `t` wins over a value
-    named `t`, and `stale`/`age` default to false/0 for estimates made outside a
-    worker host (tests, tools).
+    `{"t", "kind", "stale", "age", "converging", <values>}`; the record's `t` wins over
+    a value named `t`; `stale`/`age` default to false/0 for estimates made outside a
+    worker host (tests, tools), and `converging` to false for a core that does not
+    set it.
     """
-    d: dict[str, Any] = {"t": e.t, "kind": e.kind, "stale": False, "age": 0.0}
+    d: dict[str, Any] = {"t": e.t, "kind": e.kind, "stale": False, "age": 0.0, "converging": False}
     d.update(e.values)
     d["t"] = e.t
     return d

@@ -33,6 +33,7 @@ class ComponentHealth:
         "last_error_t",
         "restarts",
         "info",
+        "problems",
         "_clock",
         "_prev",
         "_prev_t",
@@ -48,6 +49,10 @@ class ComponentHealth:
         self.last_error_t: float | None = None
         self.restarts = 0
         self.info: dict[str, Any] = {}
+        #: What is wrong while the component runs (an estimator whose sensor failed or
+        #: whose innovations left their band): each names what it is about. Any
+        #: problem makes the component `ok: false`, whatever its state.
+        self.problems: list[str] = []
         self._clock = clock
         self._prev: dict[str, int] = {}
         self._prev_t: float | None = None
@@ -62,6 +67,17 @@ class ComponentHealth:
         self.state = state
         extra = f" reason={reason!r}" if reason else ""
         log.info("component=%s role=%s state=%s%s", self.name, self.role, state, extra)
+
+    def set_problems(self, problems: list[str]) -> None:
+        """Replace the list of problems; logs when it changes (once per change)."""
+        problems = [str(p) for p in problems]
+        if problems == self.problems:
+            return
+        if problems:
+            log.warning("component=%s role=%s problems=%r", self.name, self.role, problems)
+        else:
+            log.info("component=%s role=%s problems=resolved", self.name, self.role)
+        self.problems = problems
 
     def error(self, message: str) -> None:
         """Record an error; logs only when it differs from the previous one."""
@@ -84,7 +100,8 @@ class ComponentHealth:
             "role": self.role,
             "type": self.type,
             "state": self.state,
-            "ok": self.state in OK_STATES,
+            "ok": self.state in OK_STATES and not self.problems,
+            "problems": list(self.problems),
             "counters": dict(self.counters),
             "rates": rates,
             "last_error": self.last_error,

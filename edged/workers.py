@@ -797,6 +797,10 @@ class WorkerHost:
         core = self.runner.report()
         if core:
             info["filter"] = core
+            # A core that runs but knows it is wrong (a sensor left out, innovations far
+            # outside their band) says so in `problems`: the worker is then not ok.
+            problems = core.get("problems")
+            self.health.set_problems(problems if isinstance(problems, list) else [])
         extra = self.plugin.status()
         if extra:
             info.update(extra)

@@ -54,9 +54,9 @@ def test_scored_fields_have_truth_columns_of_the_simulator_and_valid_sigma_paths
 def test_an_estimate_as_json_has_the_common_fields_and_its_time_wins():
     e = Estimate("stw_paper", "stw_paper", 10.0, {"t": 3.0, "stw": 1.0}, kind="stw")
     d = estimate_to_json(e)
-    assert d == {"t": 10.0, "kind": "stw", "stale": False, "age": 0.0, "stw": 1.0}
+    assert d == {"t": 10.0, "kind": "stw", "stale": False, "age": 0.0, "converging": False, "stw": 1.0}
     assert record_json(e) == d
-    assert [f.name for f in COMMON_FIELDS] == ["t", "kind", "stale", "age"]
+    assert [f.name for f in COMMON_FIELDS] == ["t", "kind", "stale", "age", "converging"]
 
 
 def test_the_markdown_and_the_mcap_schemas_are_made_from_the_kinds():
@@ -68,6 +68,6 @@ def test_the_markdown_and_the_mcap_schemas_are_made_from_the_kinds():
         for f in kind.fields:
             assert f"`{f.name}`" in md
             assert f.name in schema["properties"], (kind.name, f.name)
-        assert schema["required"] == ["t", "kind", "stale", "age"]
+        assert schema["required"] == ["t", "kind", "stale", "age", "converging"]
     marks = schema_dict("edged.est.draft")["properties"]["marks"]["properties"]
     assert set(marks) == set(DRAFT_MARKS) and "mean" in marks["aft_stbd"]["properties"]

@@ -288,6 +288,27 @@ async def test_estimator_health_carries_the_cores_innovation_statistics(registry
     assert f["resets"] == 1 and f["last_reset"] == "r was 0.5" and f["last_reset_t"] == 103.0
 
 
+@pytest.mark.parametrize("placement", ["loop", "process"])
+async def test_a_core_that_names_a_problem_makes_its_worker_not_ok_until_it_is_gone(registry, placement):
+    rt = _runtime(registry, {"estimators": {"m": {"type": "mean", "worker": placement}}})
+    await rt.start()
+    rt.router.publish(yaw(100.0, 0.1))
+    await settle(rt)
+    fine = rt.health_snapshot()
+    rt.router.publish(yaw(101.0, -0.2))
+    await settle(rt)
+    wrong = rt.health_snapshot()
+    rt.router.publish(yaw(102.0, 0.3))
+    await settle(rt)
+    again = rt.health_snapshot()
+    await rt.stop()
+    assert fine["estimators"]["m"]["ok"] is True and fine["estimators"]["m"]["problems"] == []
+    m = wrong["estimators"]["m"]
+    assert m["state"] == "running" and m["ok"] is False and wrong["ok"] is False
+    assert m["problems"] == ["yaw_rate/gyro: r -0.2 is negative"]
+    assert again["estimators"]["m"]["ok"] is True and again["estimators"]["m"]["problems"] == []
+
+
 async def test_inputs_are_polled_for_status_too(registry):
     from core_dummies import DummyInput
 

@@ -109,7 +109,7 @@ def test_estimates_are_recorded_under_their_own_name_with_numpy_and_nan(make_rig
     with open(path, "rb") as f:
         (_, ch, msg), = make_reader(f).iter_messages()
     assert ch.topic == "/est/fancy_new"
-    assert json.loads(msg.data) == {"t": 5.0, "kind": None, "stale": False, "age": 0.0, "a": 1.5, "v": [0, 1, 2], "bad": None}
+    assert json.loads(msg.data) == {"t": 5.0, "kind": None, "stale": False, "age": 0.0, "converging": False, "a": 1.5, "v": [0, 1, 2], "bad": None}
     assert rig.health.counters["nonfinite_as_null"] == 1
 
 

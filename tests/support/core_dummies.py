@@ -166,7 +166,8 @@ class MeanConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
 
 class MeanCore:
     """Mean of the yaw rates seen, with its own health: NIS of each update, a gate
-    for |r| > 1 rad/s, and a reset when r is exactly 0.5."""
+    for |r| > 1 rad/s, a reset when r is exactly 0.5, and a problem named while the
+    latest r is negative."""
 
     inputs = frozenset({"yaw_rate"})
 
@@ -176,6 +177,7 @@ class MeanCore:
         self.cfg = cfg
         self.n = 0
         self.mean = 0.0
+        self.last_r = 0.0
         self.monitor = InnovationMonitor(window=10)
         if cfg.tick_only:
             self.tick = self._tick
@@ -184,6 +186,7 @@ class MeanCore:
         import time
 
         r = rec.values["r"]
+        self.last_r = r
         if self.cfg.step_delay:
             time.sleep(self.cfg.step_delay)
         if self.cfg.hang_on is not None and r == self.cfg.hang_on:
@@ -202,7 +205,9 @@ class MeanCore:
         return [Estimate("x", "x", t, {"mean": self.mean, "n": self.n})]
 
     def health(self) -> dict[str, Any]:
-        return self.monitor.snapshot()
+        out = self.monitor.snapshot()
+        out["problems"] = [f"yaw_rate/gyro: r {self.last_r} is negative"] if self.last_r < 0 else []
+        return out
 
 
 class MeanEstimator(EstimatorPlugin):
