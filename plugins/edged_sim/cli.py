@@ -1,5 +1,7 @@
 """`edged sim SCENARIO --out DIR [--duration S] [--seed N] [--waves SPEC]` (DESIGN §4).
 
+SCENARIO is a named scenario or a composition `VESSEL:SUITE[:FAULT]` (`grid.py`: a
+vessel, a sensor suite and a sensor fault, e.g. `tanker:fog`, `yacht:yacht:heading-frozen`).
 `--waves` replaces the scenario's sea (`waves.parse_waves`); meta.json records the sea
 that was used and the option as given (`overrides`).
 """
@@ -14,16 +16,18 @@ from pathlib import Path
 from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
 
 from .run import Simulation
-from .scenarios import SCENARIOS
+from .grid import help_text
+from .scenarios import SCENARIOS, lookup
 from .waves import parse_waves
 from .writers import write_run
 
 
 def main(args: argparse.Namespace) -> int:
-    scenario = SCENARIOS.get(args.scenario)
-    if scenario is None:
+    try:
+        scenario = lookup(args.scenario)
+    except ValueError as exc:
         names = "\n".join(f"  {n:24s} {s.description}" for n, s in SCENARIOS.items())
-        print(f"edged sim: unknown scenario {args.scenario!r}; scenarios:\n{names}", file=sys.stderr)
+        print(f"edged sim: {exc}; scenarios:\n{names}\n{help_text()}", file=sys.stderr)
         return EXIT_USAGE
     duration = getattr(args, "duration", None)
     if duration is not None and not duration > 0:

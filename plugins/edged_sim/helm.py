@@ -135,3 +135,71 @@ class ZigZagHelm:
             self.side = -self.side
             self.fired.append((len(self.fired), t))
         return self.side * math.radians(s.rudder_deg), self.speed.thrust(t)
+
+
+@dataclass(frozen=True)
+class Leg:
+    """From `at_s` on: steer `heading_deg` and/or order `speed_kn` (None keeps it)."""
+
+    at_s: float
+    heading_deg: float | None = None
+    speed_kn: float | None = None
+    ramp_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Autopilot:
+    """Course and speed changes steered by a heading autopilot, as ships and yachts
+    make them: a PD law on the heading error, δ = Kp·(ψ_ref − ψ) − Kd·r, within ±
+    `rudder_max_deg`, with gains by pole placement on the first-order Nomoto model
+    (Fossen 2011 §15.3.2): Kp = ω_n²·T/K, Kd = (2ζω_n·T − 1)/K with ω_n = `bandwidth`/T,
+    K = K'·U/L and T = T'·L/U at the ordered speed. A turn so steered ends on the new
+    heading without the tens of degrees of overshoot an open-loop rudder order leaves
+    on a sluggish hull. The autopilot reads the manoeuvring heading (a real one filters
+    the wave yaw out of its compass)."""
+
+    speed_kn: float
+    legs: tuple[Leg, ...] = ()
+    heading_deg: float | None = None  #: the first course; None: the scenario's start heading
+    rudder_max_deg: float = 15.0
+    bandwidth: float = 1.0
+    damping: float = 0.9
+
+    def make(self, ship: ShipParticulars) -> "AutopilotHelm":
+        return AutopilotHelm(self, ship)
+
+
+class AutopilotHelm:
+    def __init__(self, spec: Autopilot, ship: ShipParticulars) -> None:
+        self.spec = spec
+        self.ship = ship
+        self.speed = _SpeedRamp(spec.speed_kn * KNOT, ship)
+        self.next = 0
+        self.target: float | None = None if spec.heading_deg is None else math.radians(spec.heading_deg)
+        self.prev: tuple[float, float] | None = None  #: (t, psi) of the last call, for r
+        self.fired: list[tuple[int, float]] = []
+
+    def orders(self, t: float, psi: float) -> tuple[float, float]:
+        s, legs = self.spec, self.spec.legs
+        while self.next < len(legs) and t >= legs[self.next].at_s:
+            leg = legs[self.next]
+            if leg.heading_deg is not None:
+                self.target = math.radians(leg.heading_deg)
+            if leg.speed_kn is not None:
+                self.speed.set(t, leg.speed_kn * KNOT, leg.ramp_s)
+            self.fired.append((self.next, t))
+            self.next += 1
+        if self.target is None:
+            self.target = psi
+        r = 0.0
+        if self.prev is not None and t > self.prev[0]:
+            r = _heading_diff(psi, self.prev[1]) / (t - self.prev[0])
+        self.prev = (t, psi)
+        p = self.ship
+        u = max(self.speed.reference(t)[0], 0.5)
+        k, tn = p.nomoto_k * u / p.length, p.nomoto_t * p.length / u
+        wn = s.bandwidth / tn
+        kp, kd = wn * wn * tn / k, max(2.0 * s.damping * wn * tn - 1.0, 0.0) / k
+        lim = math.radians(s.rudder_max_deg)
+        delta = min(max(kp * _heading_diff(self.target, psi) - kd * r, -lim), lim)
+        return delta, self.speed.thrust(t)

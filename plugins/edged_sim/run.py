@@ -18,7 +18,7 @@ from .emit import Batch, output
 from .faults import damage_frames, damage_nmea, garbage_line
 from .geo import KNOT, LocalFrame
 from .scenario import Scenario
-from .sensors import kept, measure
+from .sensors import freeze, kept, measure
 from .truth import TruthModel, columns
 
 
@@ -45,10 +45,15 @@ class Simulation:
         self.integrator = Integrator(sc.ship, self.helm, sc.dt, sc.heading_deg, sc.helm.speed_kn * KNOT)
         self.frame = LocalFrame(*sc.origin)
         env_rng = np.random.default_rng([seed, 0])
-        self.truth = TruthModel(sc.ship, sc.current, sc.water, sc.loading, sc.waves.components(env_rng), self.frame, sc.start_epoch)
+        # The wave yaw draws from a stream of its own: scenarios without it keep their bytes.
+        yaw = None if sc.wave_yaw is None else sc.wave_yaw.components(np.random.default_rng([seed, 2]))
+        self.truth = TruthModel(sc.ship, sc.current, sc.water, sc.loading, sc.waves.components(env_rng), self.frame,
+                                sc.start_epoch, yaw)
         self.sensor_rngs = [s.rng(seed) for s in sc.sensors]
         self.spell_rngs = [s.spell_rng(seed) if s.dropout_spells else None for s in sc.sensors]
         self.outputs = [[output(k) for k in s.outputs] for s in sc.sensors]
+        #: Per sensor, its last reported values (what a frozen sensor goes on repeating).
+        self.last_values: list[dict[str, float]] = [{} for _ in sc.sensors]
         self.fault_rng = np.random.default_rng([seed, 1])
         self.injected: Counter = Counter()  #: damage by reason
         self.dropped: Counter = Counter()  #: lost samples by sensor
@@ -78,8 +83,12 @@ class Simulation:
             if key not in cache:
                 cache[key] = self.truth.sample(t_ms / 1000.0)
             values = measure(spec, cache[key], rng, self.frame)
+            if spec.frozen:
+                values = freeze(spec, t_ms / 1000.0, values, self.last_values[si])
             keep = kept(spec, t_ms / 1000.0, rng, spell_rng)
             self.dropped[spec.name] += int((~keep).sum())
+            if not keep.any():  # a chunk inside an outage: nothing to encode
+                continue
             idx = t_ms // spec.period_ms
             values = {k: v[keep] for k, v in values.items()}
             idx, t_abs = idx[keep], t_ms[keep] + epoch_ms
@@ -134,6 +143,7 @@ class Simulation:
             "water": asdict(sc.water),
             "waves": {"type": type(sc.waves).__name__, **asdict(sc.waves)},
             "loading": asdict(sc.loading),
+            **({} if sc.wave_yaw is None else {"wave_yaw": asdict(sc.wave_yaw)}),
             "can_channel": sc.can_channel,
             "sensors": [_sensor_meta(s) for s in sc.sensors],
             "faults": {
@@ -156,6 +166,8 @@ def _sensor_meta(s) -> dict:
 
     d = asdict(s)
     d["noise"], d["bias"], d["quantum"] = dict(s.noise), dict(s.bias), dict(s.quantum)
+    if not s.frozen:
+        del d["frozen"]  # the meta.json of a sensor without the newer fault stays as it was
     return d
 
 

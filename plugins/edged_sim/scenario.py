@@ -6,11 +6,11 @@ from dataclasses import dataclass, field, replace
 
 from .environment import Current, Water
 from .faults import FaultSpec
-from .helm import Manoeuvre, ZigZag
+from .helm import Autopilot, Manoeuvre, ZigZag
 from .sensors import SensorSpec
 from .ship import ShipParticulars
 from .truth import Loading
-from .waves import Calm, JonswapWaves, RegularWaves
+from .waves import Calm, JonswapWaves, RegularWaves, WaveYaw
 
 
 @dataclass(frozen=True)
@@ -19,7 +19,7 @@ class Scenario:
     description: str
     duration_s: float
     ship: ShipParticulars
-    helm: Manoeuvre | ZigZag
+    helm: Manoeuvre | ZigZag | Autopilot
     heading_deg: float
     sensors: tuple[SensorSpec, ...]
     current: Current = field(default_factory=Current)
@@ -32,6 +32,8 @@ class Scenario:
     dt: float = 0.05  #: s, integration step
     truth_rate_hz: float = 10.0
     can_channel: str = "can0"
+    #: The hull's wave-frequency yaw on top of the manoeuvring yaw (small craft); None: none.
+    wave_yaw: WaveYaw | None = None
 
     def without_errors(self) -> "Scenario":
         """Perfect sensors and no faults: the logs then carry the truth to the formats'

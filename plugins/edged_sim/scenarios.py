@@ -18,6 +18,9 @@ Each follows a reference scenario of ESTIMATORS.md and the paper behind it:
   (draft marks included, so that every estimator has its inputs) in a 0.4 m / 10 s sea.
 - `faults`: the reference suite with bad checksums, garbage, impossible positions,
   truncated frames, lost samples, a GNSS outage and a 150 m position jump.
+- `yacht-seaway`, `coaster-coastal`, `tanker-fog` and `fault-*` (issue 30): compositions
+  of a vessel, a sensor suite and a sensor fault (`grid.py`); any other composition is
+  named `VESSEL:SUITE[:FAULT]` (`lookup`).
 """
 
 from __future__ import annotations
@@ -26,12 +29,14 @@ from dataclasses import replace
 
 from .environment import Current, Water
 from .faults import FaultSpec
+from .grid import FAULTS, compose, parse
 from .helm import Manoeuvre, Step, ZigZag
 from .scenario import Scenario
 from .ship import ShipParticulars
 from .sensors import SensorSpec
-from .suites import draft_marks, echo_sounder, gyro, imu, reference_suite, stw_suite
+from .suites import SUITES, draft_marks, echo_sounder, gyro, imu, reference_suite, stw_suite
 from .truth import Loading
+from .vessels import VESSELS
 from .waves import JonswapWaves, RegularWaves
 
 CONTAINER = ShipParticulars("container ship (S-175)", 175.0, 25.4, 8.5, 0.56)
@@ -154,3 +159,30 @@ SCENARIOS: dict[str, Scenario] = {
         ),
     )
 }
+
+#: Named compositions of the generalisation grid (`grid.py`, issue 30): one vessel per
+#: suite it is typical of, and each fault of issue 30 on the coaster (the accelerometer
+#: fault with its IMU at 50 Hz, the others on the lighter coastal suite).
+_COMPOSED: dict[str, tuple[str, str, str | None]] = {
+    "yacht-seaway": ("yacht", "yacht", None),
+    "coaster-coastal": ("coaster", "coastal", None),
+    "tanker-fog": ("tanker", "fog", None),
+    "fault-accel-saturated": ("coaster", "reference", "accel-saturated"),
+    "fault-gap-6h": ("coaster", "coastal", "gap-6h"),
+    "fault-heading-frozen": ("coaster", "coastal", "heading-frozen"),
+    "fault-position-jump": ("coaster", "coastal", "position-jump"),
+    "fault-dvl-zero": ("coaster", "coastal", "dvl-zero"),
+}
+for _name, (_v, _s, _f) in _COMPOSED.items():
+    _sc = compose(VESSELS[_v], SUITES[_s], FAULTS[_f] if _f else None)
+    SCENARIOS[_name] = replace(_sc, name=_name, description=f"{_sc.name}: {_sc.description}")
+
+
+def lookup(name: str) -> Scenario:
+    """A named scenario, or a composition `VESSEL:SUITE[:FAULT]` (`grid.parse`);
+    ValueError saying what is unknown."""
+    if name in SCENARIOS:
+        return SCENARIOS[name]
+    if ":" in name:
+        return parse(name)
+    raise ValueError(f"unknown scenario {name!r}")

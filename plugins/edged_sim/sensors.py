@@ -3,7 +3,7 @@
 A sensor is data (`SensorSpec`): a measurement model, a rate, its errors (white noise,
 bias, resolution, lost samples, outages, position jumps; and faults over windows of
 time: an offset added to a field, a field forced to a value such as a status code or
-an impossible reading, spells of lost samples) and the formats it sends.
+an impossible reading, spells of lost samples, a sensor frozen on its last value) and the formats it sends.
 The measurement models are a table keyed by name; each turns truth samples into the
 values the formats encode, in SI units. Every sensor draws from its own random stream
 (seeded by the run's seed and the sensor's name), so adding a sensor to a scenario
@@ -50,6 +50,10 @@ class SensorSpec:
     #: draw from their own stream (`spell_rng`), so the sensor's noise is that of the
     #: same sensor without them.
     dropout_spells: tuple[tuple[float, float, float], ...] = ()
+    #: Windows (start s, end s) over which the sensor goes on sending, on its own grid,
+    #: the values of its last sample before the window (a frozen heading, a hung
+    #: receiver): every field repeats, only the frames' sequence numbers move on.
+    frozen: tuple[tuple[float, float], ...] = ()
 
     @property
     def period_ms(self) -> int:
@@ -79,6 +83,7 @@ class SensorSpec:
                 for a, b, f, v in self.forced]
         out += [{"sensor": self.name, "kind": "dropout", "start_s": a, "end_s": b, "probability": p}
                 for a, b, p in self.dropout_spells]
+        out += [{"sensor": self.name, "kind": "frozen", "start_s": a, "end_s": b} for a, b in self.frozen]
         return sorted(out, key=lambda w: (w["start_s"], w["end_s"]))
 
     def without_errors(self) -> "SensorSpec":
@@ -86,7 +91,7 @@ class SensorSpec:
         from dataclasses import replace
 
         return replace(self, noise={}, bias={}, quantum={}, dropout=0.0, outages=(), jumps=(), offsets=(), forced=(),
-                       dropout_spells=())
+                       dropout_spells=(), frozen=())
 
 
 Truth = Mapping[str, np.ndarray]
@@ -212,6 +217,33 @@ def measure(spec: SensorSpec, truth: Truth, rng: np.random.Generator, frame: Loc
             if inside.any():
                 values[name] = np.where(inside, value, _field(values, spec, name))
     return values
+
+
+def freeze(spec: SensorSpec, t_rel: np.ndarray, values: dict[str, np.ndarray],
+           last: dict[str, float]) -> dict[str, np.ndarray]:
+    """The values with every sample inside a `frozen` window replaced by the sensor's
+    last sample before the window. `last` holds the values of the last sample of the
+    previous chunk (updated here), so a window that began in an earlier chunk goes on
+    repeating the value it froze on. Draws nothing from any random stream."""
+    n = t_rel.size
+    if n == 0:
+        return values
+    out = {k: np.array(v, dtype=float, copy=True) for k, v in values.items()}
+    for start, end in spec.frozen:
+        inside = (t_rel >= start) & (t_rel < end)
+        if not inside.any():
+            continue
+        before = np.flatnonzero(t_rel < start)
+        for k, x in out.items():
+            if before.size:
+                ref = x[before[-1]]
+            elif k in last:
+                ref = last[k]
+            else:  # frozen from the first sample of the run: its first value
+                ref = x[np.flatnonzero(inside)[0]]
+            x[inside] = ref
+    last.update({k: float(x[-1]) for k, x in out.items()})
+    return out
 
 
 def _field(values: dict[str, np.ndarray], spec: SensorSpec, name: str) -> np.ndarray:

@@ -10,6 +10,7 @@ is exercised. `stw_suite` is the STW paper's set-up at realistic instrument rate
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from .sensors import SensorSpec
 from .truth import MARKS
@@ -97,3 +98,99 @@ def stw_suite(draft_offset: float) -> tuple[SensorSpec, ...]:
                    offset_ms=8),
         dvl(0.3), forecast(0.2), echo_sounder(draft_offset),
     )
+
+
+# -- suites as parameters (issue 30: one default configuration for every suite) ---------
+@dataclass(frozen=True)
+class SuiteSpec:
+    """A sensor suite by its qualities, from a yacht's to a large ship's.
+
+    Ranges seen aboard (ESTIMATORS.md, "What the world adds"): GNSS from 10 Hz to a fix
+    every 30 s, compasses from a 0.05° satellite compass to a 1° fluxgate, rate gyros
+    from a 0.001 °/s fibre-optic gyro to a 0.1 °/s MEMS, IMUs from none to 50 Hz, and a
+    second compass that disagrees (a magnetic or deviated one).
+    The GNSS goes out on NMEA 0183 (GGA, VTG) and NMEA 2000 (129025, 129026 at its
+    period; 129029 at most once a second); the compass on HDT and 127250 and the rate
+    gyro on ROT and 127251 (one instrument, two buses, the same values); the IMU on the
+    reference DBC frames, its yaw-rate channel as good as the rate gyro.
+    """
+
+    name: str
+    description: str
+    gnss_period_s: float = 1.0
+    position_sigma: float = 1.5  #: m, per axis
+    velocity_sigma: float = 0.05  #: m/s, per axis of the velocity vector
+    heading_hz: float = 10.0
+    heading_sigma_deg: float = 0.1
+    gyro_sigma_deg_s: float | None = 0.02  #: None: no rate-of-turn sensor
+    gyro_hz: float = 10.0
+    imu_hz: float | None = 50.0  #: None: no IMU
+    #: A second compass on NMEA 2000 (address 19, PGN 127250) reading this many degrees
+    #: more than the truth (a deviated magnetic compass); None: none.
+    second_compass_deg: float | None = None
+    second_compass_sigma_deg: float = 0.5
+    dvl_offset: float | None = 0.3  #: m/s, the log's error; None: no log
+    forecast_sigma: float | None = 0.2  #: m/s, current forecasts every 20 minutes; None: none
+
+    def sensors(self) -> tuple[SensorSpec, ...]:
+        """The suite's instruments, in a fixed order (each draws from its own stream)."""
+        rate = 1.0 / self.gnss_period_s
+        pos, vel = {"position": self.position_sigma}, {"velocity": self.velocity_sigma}
+        out: list[SensorSpec] = [
+            SensorSpec("gnss1.position", "position", rate, ("nmea:GGA",), noise=pos, talker="GP"),
+            SensorSpec("gnss1.velocity", "velocity_ground", rate, ("nmea:VTG",), noise=vel, talker="GP", offset_ms=2),
+            SensorSpec("gnss1.time", "time", min(rate, 1.0), ("nmea:ZDA",), talker="GP", offset_ms=3),
+            SensorSpec("gnss2.rapid", "position", rate, ("n2k:129025",), noise=pos, address=28, offset_ms=5),
+            SensorSpec("gnss2.velocity", "velocity_ground", rate, ("n2k:129026",), noise=vel, address=28,
+                       offset_ms=6),
+            SensorSpec("gnss2.position", "position", min(rate, 1.0), ("n2k:129029",), noise=pos, address=28,
+                       offset_ms=7),
+            SensorSpec("gyro.heading", "heading", self.heading_hz, ("nmea:HDT", "n2k:127250"),
+                       noise={"heading": self.heading_sigma_deg * DEG}, talker="HE", address=18, offset_ms=1),
+        ]
+        if self.gyro_sigma_deg_s is not None:
+            out.append(SensorSpec("gyro.rot", "yaw_rate", self.gyro_hz, ("nmea:ROT", "n2k:127251"),
+                                  noise={"r": self.gyro_sigma_deg_s * DEG}, talker="HE", address=18, offset_ms=4))
+        if self.imu_hz is not None:
+            r_sigma = (self.gyro_sigma_deg_s if self.gyro_sigma_deg_s is not None else 0.1) * DEG
+            out += [
+                SensorSpec("imu.accel", "imu_accel", self.imu_hz, ("dbc:ImuAccel",),
+                           noise={"ax": 0.02, "ay": 0.02, "az": 0.02}, bias={"ax": 0.005, "ay": -0.003}, offset_ms=8),
+                SensorSpec("imu.rate", "imu_rate", self.imu_hz, ("dbc:ImuRate",),
+                           noise={"r": r_sigma, "roll_rate": 0.01 * DEG, "pitch_rate": 0.01 * DEG}, offset_ms=9),
+                SensorSpec("imu.attitude", "attitude", min(self.imu_hz, 10.0), ("dbc:ImuAttitude", "n2k:127257"),
+                           noise={"roll": 0.02 * DEG, "pitch": 0.02 * DEG, "heave": 0.02,
+                                  "yaw": self.heading_sigma_deg * DEG}, address=45, offset_ms=11),
+            ]
+        if self.second_compass_deg is not None:
+            out.append(SensorSpec("compass2.heading", "heading", self.heading_hz, ("n2k:127250",),
+                                  noise={"heading": self.second_compass_sigma_deg * DEG},
+                                  bias={"heading": self.second_compass_deg * DEG}, address=19, offset_ms=15))
+        if self.dvl_offset is not None:
+            out.append(dvl(self.dvl_offset))
+        if self.forecast_sigma is not None:
+            out.append(forecast(self.forecast_sigma))
+        return tuple(out)
+
+
+#: The suites of the generalisation grid, by name (`edged sim VESSEL:SUITE`).
+SUITES: dict[str, SuiteSpec] = {
+    s.name: s
+    for s in (
+        SuiteSpec("reference", "DESIGN §9's rates without the draft marks: GNSS 10 Hz, compass 0.1° and "
+                  "gyro 0.02 °/s at 10 Hz, IMU 50 Hz", gnss_period_s=0.1),
+        SuiteSpec("coastal", "GNSS 1 Hz, compass 0.1° and gyro 0.02 °/s at 10 Hz, IMU 1 Hz", imu_hz=1.0),
+        SuiteSpec("yacht", "A yacht's: GNSS 1 Hz (σ 2.5 m, 0.065 m/s), fluxgate 1° at 1 Hz, no rate gyro, "
+                  "no IMU", position_sigma=2.5, velocity_sigma=0.065, heading_hz=1.0, heading_sigma_deg=1.0,
+                  gyro_sigma_deg_s=None, imu_hz=None),
+        SuiteSpec("mems", "GNSS 1 Hz, fluxgate 1° and MEMS gyro 0.1 °/s at 10 Hz, IMU 50 Hz",
+                  heading_sigma_deg=1.0, gyro_sigma_deg_s=0.1),
+        SuiteSpec("fog", "A large ship's: GNSS every 30 s, gyrocompass 0.05° and fibre-optic gyro 0.001 °/s at "
+                  "10 Hz, IMU 1 Hz", gnss_period_s=30.0, position_sigma=2.5, velocity_sigma=0.065,
+                  heading_sigma_deg=0.05, gyro_sigma_deg_s=0.001, imu_hz=1.0),
+        SuiteSpec("sparse", "GNSS every 30 s (σ 2.5 m, 0.065 m/s), compass 0.1° and gyro 0.02 °/s at 10 Hz, "
+                  "IMU 1 Hz", gnss_period_s=30.0, position_sigma=2.5, velocity_sigma=0.065, imu_hz=1.0),
+        SuiteSpec("two-compasses", "coastal plus a second compass 25° off (σ 0.5°, NMEA 2000 address 19)",
+                  imu_hz=1.0, second_compass_deg=25.0),
+    )
+}

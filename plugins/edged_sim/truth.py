@@ -15,7 +15,7 @@ from .dynamics import Trace
 from .environment import Current, Water, barrass_squat
 from .geo import LocalFrame, wrap_2pi
 from .ship import ShipParticulars
-from .waves import Components, encounter_frequency, response
+from .waves import Components, YawComponents, encounter_frequency, response
 
 #: Draft marks in DBC order (ids 0x310..0x315): (name, x as fraction of L, y side).
 MARKS: tuple[tuple[str, float, float], ...] = (
@@ -75,6 +75,8 @@ class TruthModel:
     waves: Components
     frame: LocalFrame
     epoch: float
+    #: The hull's wave-frequency yaw (`waves.WaveYaw`), None for none.
+    yaw: YawComponents | None = None
     _disp: tuple[float, float] = (0.0, 0.0)
     _phase: np.ndarray | None = None
     _chunk: dict = field(default_factory=dict)
@@ -134,9 +136,12 @@ class TruthModel:
         static = lo.mean_draft(t)
         stw = np.hypot(u_r, v_r)
         squat = barrass_squat(stw, static, ship.beam, ship.block_coefficient, self.water)
+        heading = psi
+        if self.yaw is not None:
+            heading, u_g, v_g, u_r, v_r, r, a_u, a_v = _wave_yawed(self.yaw, t, psi, u_g, v_g, u_r, v_r, r, a_u, a_v)
         out: dict[str, np.ndarray] = {
             "t": self.epoch + t, "t_rel": t, "lat": lat, "lon": lon, "x": north, "y": east,
-            "u": u_g, "v": v_g, "r": r, "heading": wrap_2pi(psi), "a_u": a_u, "a_v": a_v,
+            "u": u_g, "v": v_g, "r": r, "heading": wrap_2pi(heading), "a_u": a_u, "a_v": a_v,
             "sog": sog, "cog": cog, "drift_angle": np.arctan2(v_g, u_g),
             "stw": stw, "stw_long": u_r, "stw_trans": v_r,
             "current_set": wrap_2pi(np.arctan2(vce, vcn)), "current_drift": np.hypot(vcn, vce),
@@ -170,3 +175,25 @@ class TruthModel:
         out["depth"], out["depth_below_transducer"] = depth, depth - draft_tr
         out["ukc"] = depth - np.max(means, axis=0)
         return out
+
+
+def _wave_yawed(yaw: YawComponents, t: np.ndarray, psi: np.ndarray, u_g: np.ndarray, v_g: np.ndarray,
+                u_r: np.ndarray, v_r: np.ndarray, r: np.ndarray, a_u: np.ndarray,
+                a_v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The body-axis truth of a hull that yaws by ψ_WF about its low-frequency heading
+    while its velocity over ground (and through the water) stays the low-frequency
+    model's (`waves.WaveYaw`): heading ψ + ψ_WF, r + ψ̇_WF, the velocities and the
+    specific force (what the accelerometers read) turned by −ψ_WF into the yawed
+    hull's axes, and a_u, a_v from the specific force with the total r (ax = a_u − v·r,
+    ay = a_v + u·r hold as they do without waves)."""
+    pw, rw, _ = yaw.at(t)
+    cw, sw = np.cos(pw), np.sin(pw)
+
+    def turn(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return x * cw + y * sw, -x * sw + y * cw
+
+    fx, fy = turn(a_u - v_g * r, a_v + u_g * r)
+    u_g, v_g = turn(u_g, v_g)
+    u_r, v_r = turn(u_r, v_r)
+    r = r + rw
+    return psi + pw, u_g, v_g, u_r, v_r, r, fx + v_g * r, fy - u_g * r

@@ -148,6 +148,52 @@ def response(
     )
 
 
+@dataclass(frozen=True)
+class WaveYaw:
+    """The hull's first-order (wave-frequency) yaw: what a small craft's compass and
+    rate gyro see on top of the low-frequency manoeuvring yaw.
+
+    Motion superposition (Fossen, *Handbook of Marine Craft Hydrodynamics and Motion
+    Control*, 2011, §10.2 and ch. 8.2: total motion = low-frequency manoeuvring model +
+    linear wave-frequency response): the yaw is ψ = ψ_LF + ψ_WF, with ψ_WF a
+    narrow-band process, here `n` sinusoids of encounter periods drawn uniformly in
+    [period_min_s, period_max_s] with random phases and equal shares of the variance,
+    ψ_WF(t) = Σ aᵢ·sin(ωᵢt + φᵢ), aᵢ = amplitude/√(2n). `amplitude_deg` is the
+    significant amplitude (the mean of the highest third of the swings, 2·RMS for a
+    narrow-band Gaussian process, as H_s = 4·RMS is for the sea): the RMS of ψ_WF is
+    amplitude/2, and a 12 m yacht in a 1 m sea "yaws ±5° at 3–6 s". The velocity over ground does not follow the wave
+    yaw (the hull's inertia against a 3–6 s oscillation): the track, SOG and COG are the
+    low-frequency model's and the body-axis velocities turn against the heading, which
+    is the wave-frequency sway and surge a sensor fixed to the hull reports
+    (u = U·cos ψ_WF, v = −U·sin ψ_WF on a straight course). The roll/pitch/heave
+    response stays on the low-frequency heading.
+    """
+
+    amplitude_deg: float = 5.0
+    period_min_s: float = 3.0
+    period_max_s: float = 6.0
+    n: int = 6
+
+    def components(self, rng: np.random.Generator) -> "YawComponents":
+        w = 2.0 * np.pi / rng.uniform(self.period_min_s, self.period_max_s, self.n)
+        a = np.full(self.n, np.radians(self.amplitude_deg) / np.sqrt(2.0 * self.n))
+        return YawComponents(a, w, rng.uniform(0.0, 2.0 * np.pi, self.n))
+
+
+@dataclass(frozen=True)
+class YawComponents:
+    amplitude: np.ndarray  #: rad
+    omega: np.ndarray  #: rad/s (encounter)
+    phase: np.ndarray  #: rad at t = 0
+
+    def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """ψ_WF, its rate and its acceleration at run times t (s)."""
+        arg = self.omega[None, :] * np.asarray(t, dtype=float)[:, None] + self.phase[None, :]
+        s, c = np.sin(arg), np.cos(arg)
+        a, w = self.amplitude[None, :], self.omega[None, :]
+        return (a * s).sum(axis=1), (a * w * c).sum(axis=1), -(a * w * w * s).sum(axis=1)
+
+
 #: `edged sim --waves SPEC` forms, for messages.
 WAVES_SPEC = "regular:AMPLITUDE,PERIOD[,FROM_DEG] or jonswap:HS,TP[,FROM_DEG]"
 
