@@ -188,6 +188,8 @@ SUITES: dict[str, SuiteSpec] = {
         SuiteSpec("fog", "A large ship's: GNSS every 30 s, gyrocompass 0.05° and fibre-optic gyro 0.001 °/s at "
                   "10 Hz, IMU 1 Hz", gnss_period_s=30.0, position_sigma=2.5, velocity_sigma=0.065,
                   heading_sigma_deg=0.05, gyro_sigma_deg_s=0.001, imu_hz=1.0),
+        SuiteSpec("fog-gnss1", "fog with GNSS at 1 Hz: gyrocompass 0.05° and fibre-optic gyro 0.001 °/s at 10 Hz, "
+                  "IMU 1 Hz", heading_sigma_deg=0.05, gyro_sigma_deg_s=0.001, imu_hz=1.0),
         SuiteSpec("sparse", "GNSS every 30 s (σ 2.5 m, 0.065 m/s), compass 0.1° and gyro 0.02 °/s at 10 Hz, "
                   "IMU 1 Hz", gnss_period_s=30.0, position_sigma=2.5, velocity_sigma=0.065, imu_hz=1.0),
         SuiteSpec("two-compasses", "coastal plus a second compass 25° off (σ 0.5°, NMEA 2000 address 19)",

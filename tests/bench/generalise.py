@@ -182,13 +182,13 @@ def grid_report(results: list[dict[str, Any]], vessels: list[str], suites: list[
         for e in ESTIMATES:
             h = hs.get(e, {})
             n = h.get("estimates") or 0
-            cells += [f"{100 * h.get('converging', 0) / n:.1f} %" if n else "-",
+            cells += [f"{n} ({100 * h.get('converging', 0) / n:.1f} %)" if n else "0",
                       f"{100 * h['not_ok'] / h['snapshots']:.0f} %" if h.get("snapshots") else "-",
                       h.get("problems", "-")]
         runs.append(cells + [r.get("error") or r.get("score_error") or r.get("replay_said") or ""])
     parts.append("### runs: converging, health\n\n" + table(
-        ["run", "seed", "replay rc", "wall s", "stw converging", "stw ok:false", "stw problems", "manoeuvre converging",
-         "manoeuvre ok:false", "manoeuvre problems", "errors"], runs))
+        ["run", "seed", "replay rc", "wall s", "stw estimates (converging)", "stw ok:false", "stw problems",
+         "manoeuvre estimates (converging)", "manoeuvre ok:false", "manoeuvre problems", "errors"], runs))
     parts.append("### ratios above 1.0 (a field worse than its own sensor)\n\n"
                  + ("\n".join(f"- {f}" for f in flagged) if flagged else "none"))
     return "\n\n".join(parts)
