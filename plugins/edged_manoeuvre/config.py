@@ -34,7 +34,7 @@ DEFAULTS = {
         "substep": 0.05, "position_sigma": 1.5, "heading_sigma_deg": 0.2, "yaw_rate_sigma_deg": 0.05,
         "accel_sigma": 0.03, "q_position": 1e-4, "q_velocity": 1e-6, "q_heading": 1e-8,
         "q_yaw_accel": 1e-7, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
-        "gate": True, "imu_bias": True, "init_window": 1.0, "max_rate": 10.0,
+        "gate": True, "imu_bias": True, "init_window": 3.0, "max_rate": 10.0,
     },
     "paper": {
         "substep": 0.005, "position_sigma": PAPER_R["position"], "heading_sigma_deg": 0.5,
@@ -95,12 +95,23 @@ class ManoeuvreConfig(EstimatorConfig):
     gate: bool | None = Field(None, validate_default=True)
     imu_bias: bool | None = Field(None, validate_default=True)
     #: Seconds of fixes fitted by a straight line for the starting velocity (0: the
-    #: paper's two-point differencing of the first two fixes).
+    #: paper's two-point differencing of the first two fixes). 3 s: a 10 Hz receiver's
+    #: 1.5 m of noise gives a 1-s line's slope a σ of 1.3 m/s (2.5 kn at a berth), a
+    #: 3-s line's 0.25; a slower receiver starts from its last three fixes.
     init_window: float | None = Field(None, ge=0.0, le=60.0, validate_default=True)
 
     #: A sensor faster than this (Hz) is averaged in blocks to it before the update
     #: (a 50 Hz IMU: five samples a measurement); 0 updates with every sample.
     max_rate: float | None = Field(None, ge=0.0, le=1000.0, validate_default=True)
+    #: A data-time gap longer than this (s) in every input starts the filter again from
+    #: the measurements after it instead of integrating the model across it: nothing a
+    #: kinematic model predicts minutes ahead is an estimate, and integrating a gap
+    #: between two logs of different days would take hours of Runge–Kutta sub-steps.
+    #: It also bounds the work of one step (at most reset_after / substep sub-steps).
+    reset_after: float = Field(120.0, gt=0.0, le=3600.0)
+    #: After a start, an estimate is `converging` until this many position fixes and
+    #: as many headings have been taken in (a start's σ is honest, but wide).
+    converge_updates: int = Field(5, ge=0, le=1000)
     #: Plane origin moved to the estimate when the vessel is this far from it, m.
     origin_radius: float = Field(5000.0, ge=100.0, le=100_000.0)
     #: Take the current for the drift through the water from this estimator's

@@ -38,6 +38,7 @@ from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
 from .ctra import Ctra
 from .model import KINDS, PSI, R, residual, rk4, wrap_2pi, wrap_pi
+from .blend import ForecastBlend
 from .calibrate import EllipseCalibration
 from .predict import Predictor
 from .sources import SourceCopies
@@ -49,6 +50,10 @@ START_AGE = 1.0
 #: A current older than this (s of data time) no longer gives the drift through the
 #: water (a forecast's own validity; the stw estimator publishes every second).
 CURRENT_MAX_AGE = 3 * 3600.0
+#: 1-σ of a start's velocity from the GNSS's own SOG/COG (m/s per axis): its Doppler
+#: velocity's few cm/s, with room for a receiver's lag and COG's noise at low speed. It
+#: replaces the line through the fixes when that line's slope is twice as uncertain.
+START_VG_SIGMA = 0.2
 #: The same lat, lon from one source within this many seconds is one fix told again.
 REPEAT_WINDOW = 0.9
 #: The starting line is fitted to fixes of at most this many seconds (a 1 Hz GNSS:
@@ -67,6 +72,39 @@ SIGMA_FLOOR = {
     "yaw_rate": np.array([0.0005 * DEG]),
     "accel": np.full(2, 0.001),
 }
+#: What two good sensors of a kind may differ by (per row), whatever their σ: two
+#: compasses by their deviation and the wave yaw one sees first, two GNSS antennas by
+#: their lever arm, two rate gyros by their biases. Beyond it (and beyond APART
+#: combined σ) two sources disagree and are never averaged (`sources.py`).
+DISAGREE_FLOOR = {
+    "position": np.full(2, 30.0),
+    "heading": np.array([5.0 * DEG]),
+    "yaw_rate": np.array([0.5 * DEG]),
+    "accel": np.full(2, 0.5),
+}
+#: The course over ground decides between two disagreeing compasses when the track
+#: of the last TRACK_SPAN s is at least TRACK_SPEED m/s and one compass is closer to it
+#: than the other by TRACK_MARGIN (a drift angle is a few degrees underway, not 20).
+TRACK_SPAN = 10.0
+TRACK_SPEED = 1.0
+TRACK_MARGIN = 5.0 * DEG
+#: A measurement kind whose innovations stay this far above their χ² band over a full
+#: window of updates (mean NIS above NIS_PROBLEM_MEAN × dof *and* fewer than
+#: NIS_PROBLEM_IN_BAND of them inside the two-sided 95 % band: a few outliers lift the
+#: mean alone) is named in health's `problems` (`ok: false`): the filter's model of that
+#: sensor is wrong (a fault, a second source nobody separated, a noise beyond what the
+#: adaptation may learn).
+NIS_PROBLEM_MEAN = 5.0  # × dof
+NIS_PROBLEM_IN_BAND = 0.5
+NIS_PROBLEM_UPDATES = 50
+#: A hull making way over ground faster than SIDEWAYS_SPEED m/s with a drift angle
+#: between SIDEWAYS_ANGLE and 180° − SIDEWAYS_ANGLE for SIDEWAYS_SPAN s of data is
+#: not possible (leeway is a few degrees; a cross current at this speed turns the track
+#: by tens of degrees at most): the heading or the positions are wrong, and health
+#: says so (Furuno's log: heading 143°, track 213° at 5.9 m/s).
+SIDEWAYS_SPEED = 3.0
+SIDEWAYS_ANGLE = 45.0 * DEG
+SIDEWAYS_SPAN = 30.0
 #: The NIS adaptation's groups: which states' process noise each scales, and the
 #: sensors whose NIS drives it, in order of preference: the first that has updated in
 #: the last `DRIVER_SPAN` s drives it alone. Each group listens to the sensor that sees
@@ -84,6 +122,20 @@ GROUPS = {
 DRIVER_SPAN = 5.0
 #: A GNSS jump this soon (s) after the start means the start was wrong: start again.
 RESTART_SPAN = 20.0
+#: The predictions each horizon chooses among (`blend.py`): the model with its yaw
+#: rate held, the model with the yaw rate low-passed over R_LF_TAU s (the turn that
+#: moves the track, not the wave yaw), a straight line from the estimate at its
+#: velocity over ground, and dead reckoning from the last fix at the GNSS's own
+#: SOG/COG (at the fixes' own speed over the last TRACK_SPAN s when it sends none).
+CANDIDATES = ("model", "model_low_rate", "straight", "dead_reckoning")
+R_LF_TAU = 20.0
+#: SOG/COG older than this (s) no longer carries the dead reckoning.
+VG_MAX_AGE = 5.0
+#: The share of a fix's own noise (its learned R) the ellipse's calibration takes
+#: off (`calibrate.py`): 0, the ellipse is sized to hold the fixes themselves, which
+#: is what a navigator, a CPA check or an independent check compares it with (sized to
+#: hold the truth behind them, it held 64–76 % of Aava's and Zeus2's fixes at 10 s).
+WITNESS_NOISE = 0.0
 #: Health text of each input's absence.
 COSTS = {
     "position": "no GNSS position: the filter cannot start",
@@ -108,7 +160,7 @@ class ManoeuvreCore:
             "yaw_rate": np.array([float(cfg.yaw_rate_sigma_deg) * DEG]),
             "accel": np.full(2, float(cfg.accel_sigma)),
         }
-        self.inputs = frozenset({"position", "heading", "yaw_rate", "accel_body", "current"}
+        self.inputs = frozenset({"position", "heading", "yaw_rate", "accel_body", "current", "velocity_ground"}
                                 | ({f"est/{cfg.current_from}"} if cfg.current_from else set()))
         self.filter: Any = None
         self.t: float | None = None
@@ -122,14 +174,23 @@ class ManoeuvreCore:
         self.monitor = InnovationMonitor(window=200)
         self.predictor = Predictor(self.model, tuple(cfg.horizons), cfg.accel_decay)
         self.calibration = [EllipseCalibration(h, cfg.ellipse_window, sigmas=cfg.ellipse_sigmas) for h in self.predictor.horizons]
+        window = cfg.ellipse_window if cfg.ellipse_window > 0.0 else 600.0
+        self.blends = [ForecastBlend(h, CANDIDATES, "dead_reckoning", window) for h in self.predictor.horizons]
+        self._r_lf: float | None = None  # the yaw rate low-passed (`R_LF_TAU`)
+        self._r_lf_t: float | None = None
+        self._raw_fix: tuple[float, float, float] | None = None  # t, lat, lon of the last fix taken
+        self._vg: tuple[float, float, float] | None = None  # t, v_n, v_e of the GNSS's own SOG/COG
+        self._vg_source: str | None = None
         self.decimator = Decimator(float(cfg.max_rate))
-        self.copies = SourceCopies()
+        self.copies = SourceCopies(DISAGREE_FLOOR, self._choose, one_at_a_time=frozenset({"position"}))
+        self._track: deque[tuple[float, float, float]] = deque()  # (t, p_n, p_e) of the fixes taken
         self.muted: Counter[str] = Counter()
         self.seen: Counter[str] = Counter()
         self.rejected: Counter[str] = Counter()
         self.resets: Counter[str] = Counter()
         self.divergences = 0
         self._fixes: deque[tuple[float, float, float]] = deque()
+        self._fixes_source: str | None = None
         self._last_fix: dict[str, tuple[float, Any, Any, float | None]] = {}
         self._heading: tuple[float, float] | None = None
         self._rate: tuple[float, float] | None = None
@@ -138,6 +199,9 @@ class ManoeuvreCore:
         self._rcond: float | None = None
         self._init_rng = init_rng
         self._t_started = -math.inf
+        self._t_input: float | None = None  # the newest input's data time
+        self._sideways: tuple[float, float, float] | None = None  # since, drift angle, sog
+        self._since_start: Counter[str] = Counter()  # updates applied since the start
         self._prediction: tuple[float, list[dict[str, float]]] | None = None
         #: When a list (the Monte-Carlo harness sets one): (t, kind, NIS, dof, applied,
         #: whitened innovation S^(-1/2) y) of every update, for the paper's tables.
@@ -153,27 +217,45 @@ class ManoeuvreCore:
         v = rec.values
         t = rec.t
         self.seen[kind] += 1
+        self._gap(t)
         if kind == "position":
             self._on_position(t, v, rec.source, rec.t_src)
         elif kind == "heading":
             psi = v.get("heading")
             if _finite(psi):
-                self._heading = (t, float(psi))
                 self._measure("heading", t, np.array([float(psi)]), rec.source)
         elif kind == "yaw_rate":
             r = v.get("r")
             if _finite(r):
-                self._rate = (t, float(r))
                 self._measure("yaw_rate", t, np.array([float(r)]), rec.source)
         elif kind == "accel_body":
             ax, ay = v.get("ax"), v.get("ay")
             if _finite(ax, ay):
                 self._measure("accel", t, np.array([float(ax), float(ay)]), rec.source)
+        elif kind == "velocity_ground":
+            sog, cog = v.get("sog"), v.get("cog")
+            if _finite(sog, cog) and (self._vg_source is None or self._vg_source == rec.source
+                                      or self._vg is None or t - self._vg[0] > VG_MAX_AGE):
+                self._vg_source = rec.source  # one receiver's, the first heard (or the one speaking)
+                self._vg = (t, float(sog) * math.cos(cog), float(sog) * math.sin(cog))
         elif kind == "current":
             set_, drift = v.get("set"), v.get("drift")
             if _finite(set_, drift):
                 self._current = (t, float(drift) * math.cos(set_), float(drift) * math.sin(set_))
         return []
+
+    def _gap(self, t: float) -> None:
+        """A gap of more than `reset_after` s since the last input (any kind): the
+        filter starts again from what follows (`_start_again`), counted `gap`."""
+        last = self._t_input
+        if last is None or t > last:
+            self._t_input = t
+        if last is not None and t - last > self.cfg.reset_after:
+            if self.filter is not None or self._fixes:
+                self.resets["gap"] += 1
+                self.monitor.reset(f"a gap of {t - last:.0f} s in every input", t)
+                self._start_again()
+            self._heading = self._rate = None
 
     def _on_stw(self, e: Estimate) -> None:
         c, set_ = e.values.get("current"), e.values.get("current_set")
@@ -197,11 +279,23 @@ class ManoeuvreCore:
         if self.plane is None:
             self.plane = LocalPlane(float(lat), float(lon))
         pn, pe = self.plane.to_ne(float(lat), float(lon))
+        z = np.array([pn, pe])
+        if not self._heard("position", t, z, source):
+            return
+        self._raw_fix = (t, float(lat), float(lon))
+        track = self._track
+        if not track or track[-1][0] < t:
+            track.append((t, pn, pe))
+        while track and track[0][0] < t - TRACK_SPAN:
+            track.popleft()
         if self.filter is None:
+            if self._fixes_source != source:  # a start fits one receiver's fixes, never a mix
+                self._fixes.clear()
+                self._fixes_source = source
             self._fixes.append((t, pn, pe))
             self._try_start(t)
             return
-        self._measure("position", t, np.array([pn, pe]), source)
+        self._measure("position", t, z, source)
         self._move_origin()
 
     # ------------------------------------------------------------------ start
@@ -248,6 +342,13 @@ class ManoeuvreCore:
             var_v = var_p / sxx
             cov_pv = -var_p * tm / sxx
             var_p = var_p * (1.0 / len(pts) + tm * tm / sxx)
+            vg = self._vg
+            if var_v > (2.0 * START_VG_SIGMA) ** 2 and vg is not None and 0.0 <= t - vg[0] <= START_AGE + 0.5:
+                # a slow receiver's line is steep noise (1 Hz, 1.5 m: its slope's σ is
+                # 0.75 m/s): the receiver's own velocity (Doppler, a few cm/s) instead
+                vn, ve = vg[1], vg[2]
+                var_v = START_VG_SIGMA**2
+                cov_pv = 0.0
         r = self._rate[1] if self._rate is not None and t - self._rate[0] <= START_AGE else 0.0
         var_r = (float(cfg.yaw_rate_sigma_deg) * DEG) ** 2 if self._rate is not None else START_RATE_SIGMA**2
         psi = hd[1]
@@ -271,6 +372,7 @@ class ManoeuvreCore:
         self.filter = self._make_filter(x0, P0)
         self.t = t
         self._t_started = t
+        self._since_start.clear()
         self._fixes.clear()
 
     def _make_filter(self, x0: np.ndarray, P0: np.ndarray) -> Any:
@@ -299,6 +401,12 @@ class ManoeuvreCore:
         return Q
 
     @property
+    def converging(self) -> bool:
+        """Since the (re)start, fewer than `converge_updates` fixes or headings taken in."""
+        n = self.cfg.converge_updates
+        return self._since_start["position"] < n or self._since_start["heading"] < n
+
+    @property
     def q_raised(self) -> bool:
         return any(q.raised for q in self.qscales.values())
 
@@ -306,10 +414,24 @@ class ManoeuvreCore:
         noise = self.noise.get((kind, source))
         return np.sqrt(noise.var) if noise is not None else self.sigma0[kind]
 
-    def _measure(self, kind: str, t: float, z: np.ndarray, source: str) -> None:
+    def _heard(self, kind: str, t: float, z: np.ndarray, source: str) -> bool:
+        """A reading judged against the other sources of its kind (`sources.py`): False
+        when it is muted (a copy, the source not kept of two that disagree, a GNSS
+        receiver standing by). Only what is heard starts the filter."""
         k = KINDS[kind]
-        if self.copies.muted(kind, source, t, z, lambda a, b: residual(k, a, b), lambda s: self._sigma(kind, s)):
+        muted = self.copies.muted(kind, source, t, z, lambda a, b: residual(k, a, b), lambda s: self._sigma(kind, s))
+        self._disagreed()
+        if muted:
             self.muted[kind] += 1
+            return False
+        if kind == "heading":  # what a start takes (`_try_start`)
+            self._heading = (t, float(z[0]))
+        elif kind == "yaw_rate":
+            self._rate = (t, float(z[0]))
+        return True
+
+    def _measure(self, kind: str, t: float, z: np.ndarray, source: str) -> None:
+        if kind != "position" and not self._heard(kind, t, z, source):
             return
         f = self.filter
         if f is None or self.t is None:
@@ -321,6 +443,11 @@ class ManoeuvreCore:
         dt = t - self.t
         if dt < -0.5:
             self.rejected[f"{kind}.late"] += 1
+            return
+        if dt > self.cfg.reset_after:  # the filter's sensors were silent (only a current spoke)
+            self.resets["gap"] += 1
+            self.monitor.reset(f"no {'/'.join(KINDS)} for {dt:.0f} s", t)
+            self._start_again()
             return
         cfg = self.cfg
         key = (kind, source)
@@ -349,7 +476,9 @@ class ManoeuvreCore:
             # 10-s ellipse to hold 30 % of the truths)
             v_ne = self.model.ground_velocity(f.x)
             for c in self.calibration:
-                c.due(t, self.plane.to_ne, (float(z[0]), float(z[1])), v_ne, R_)
+                c.due(t, self.plane.to_ne, (float(z[0]), float(z[1])), v_ne, WITNESS_NOISE * R_)
+            for b in self.blends:
+                b.due(t, self.plane.to_ne, (float(z[0]), float(z[1])), v_ne)
         limit = gate.limit(dof) if cfg.gate else None
         inn = f.update(kind, z, R_, limit)
         self._nis, self._rcond = inn.nis, inn.rcond
@@ -380,12 +509,24 @@ class ManoeuvreCore:
                 for q in self._driven_by(kind, t):
                     q.bump(10.0)
         self.monitor.update(kind, inn.nis, dof)
+        self._since_start[kind] += 1
+        self._low_rate(t, float(f.x[R]))
         driven = self._driven_by(kind, t)
         if cfg.adapt_q:
             for q in driven:
                 q.add(t, inn.nis, dof)
         if cfg.adapt_r and not any(q.raised for q in self._groups_of(kind)):
             noise.add(inn.y, inn.S, R_)  # a manoeuvre is not sensor noise
+
+    def _low_rate(self, t: float, r: float) -> None:
+        """r low-passed: r_lf += (1 − e^(−Δt/τ))·(r − r_lf), at each applied update."""
+        if self._r_lf is None or self._r_lf_t is None:
+            self._r_lf, self._r_lf_t = r, t
+            return
+        dt = t - self._r_lf_t
+        if dt > 0.0:
+            self._r_lf += (1.0 - math.exp(-dt / R_LF_TAU)) * (r - self._r_lf)
+            self._r_lf_t = t
 
     def _groups_of(self, kind: str) -> list[QScale]:
         return [self.qscales[g] for g, (kinds, _) in GROUPS.items() if kind in kinds]
@@ -434,6 +575,77 @@ class ManoeuvreCore:
         self._fixes.clear()
         for c in self.calibration:
             c.forget_pending()
+        for b in self.blends:
+            b.forget_pending()
+        self._r_lf = self._r_lf_t = None
+        self._sideways = None
+
+    def _choose(self, kind: str, first: str, second: str, z1: np.ndarray, z2: np.ndarray) -> tuple[str, str]:
+        """Which of two disagreeing sources to keep: for compasses, the one nearer the
+        course over ground when the vessel makes way; else the one heard first (the
+        one the filter has followed longest)."""
+        if kind == "heading":
+            cog = self._track_course()
+            if cog is not None:
+                d1 = abs(float(wrap_pi(float(z1[0]) - cog)))
+                d2 = abs(float(wrap_pi(float(z2[0]) - cog)))
+                if abs(d1 - d2) >= TRACK_MARGIN:
+                    return (first, "nearer the course over ground") if d1 < d2 else (second, "nearer the course over ground")
+        return first, "heard first"
+
+    def _track_velocity(self) -> tuple[float, float] | None:
+        """The fixes' own velocity over the last TRACK_SPAN s (first to last)."""
+        tr = self._track
+        if len(tr) < 2 or tr[-1][0] - tr[0][0] < 0.5 * TRACK_SPAN:
+            return None
+        (t0, n0, e0), (t1, n1, e1) = tr[0], tr[-1]
+        return (n1 - n0) / (t1 - t0), (e1 - e0) / (t1 - t0)
+
+    def _track_course(self) -> float | None:
+        """The course of the fixes of the last TRACK_SPAN s, when they make way."""
+        v = self._track_velocity()
+        if v is None or math.hypot(*v) < TRACK_SPEED:
+            return None
+        return math.atan2(v[1], v[0])
+
+    def _disagreed(self) -> None:
+        """Two sources were found to disagree: the filter has been fed their mix, so it
+        starts again from the one kept."""
+        for d in self.copies.take_new():
+            self.resets[f"{d.kind}.sources_disagree"] += 1
+            if self.filter is not None:
+                self.monitor.reset(f"{d.kind}: {d.first} and {d.second} disagree, {d.kept} kept", self.t)
+                self._start_again()
+
+    def _judge_motion(self, t: float, u: float, v: float, sog: float) -> None:
+        """Keep the time since which the estimate has moved sideways (`SIDEWAYS_*`)."""
+        drift = abs(math.atan2(v, u))
+        if sog > SIDEWAYS_SPEED and SIDEWAYS_ANGLE < drift < math.pi - SIDEWAYS_ANGLE:
+            since = self._sideways[0] if self._sideways is not None else t
+            self._sideways = (since, drift, sog)
+        else:
+            self._sideways = None
+
+    def problems(self) -> list[str]:
+        """What is wrong now, each naming its measurement and source (health)."""
+        out = []
+        side = self._sideways
+        if side is not None and self._t_input is not None and self._t_input - side[0] >= SIDEWAYS_SPAN:
+            out.append(f"heading: the hull moves sideways (drift angle {side[1] / DEG:.0f}° at {side[2]:.1f} m/s "
+                       f"over ground for {self._t_input - side[0]:.0f} s): the heading or the positions are wrong")
+        for d in self.copies.disagreements():
+            out.append(f"{d.kind}: sources {d.first} and {d.second} disagree by {_say(d.kind, d.diff)}; "
+                       f"{d.kept} kept ({d.why})")
+        for kind, m in self.monitor.snapshot().get("innovation", {}).items():
+            dof = m.get("dof") or 1
+            if m.get("window", 0) < NIS_PROBLEM_UPDATES or m.get("nis_mean") is None:
+                continue
+            # too large only: a NIS too small (a static receiver repeating one fix) is a
+            # σ that claims less than it knows, not an estimate that is wrong
+            if m["nis_mean"] > NIS_PROBLEM_MEAN * dof and (m.get("in_band_95") or 0.0) < NIS_PROBLEM_IN_BAND:
+                out.append(f"{kind}: innovations out of their band (NIS mean {m['nis_mean']:.3g} for {dof} dof, "
+                           f"{m.get('in_band_95', 0.0):.0%} in the 95 % band over {m['window']} updates)")
+        return out
 
     def _move_origin(self) -> None:
         f = self.filter
@@ -442,9 +654,11 @@ class ManoeuvreCore:
         x = f.x
         if math.hypot(x[0], x[1]) <= self.cfg.origin_radius:
             return
-        lat, lon = self.plane.to_geodetic(float(x[0]), float(x[1]))
+        dn, de = float(x[0]), float(x[1])
+        lat, lon = self.plane.to_geodetic(dn, de)
         self.plane = LocalPlane(lat, lon)
-        f.shift(float(x[0]), float(x[1]))
+        f.shift(dn, de)
+        self._track = deque((tt, n - dn, e - de) for tt, n, e in self._track)
         self.resets["origin_moved"] += 1
 
     # ------------------------------------------------------------------ output
@@ -452,6 +666,8 @@ class ManoeuvreCore:
         f = self.filter
         if f is None or self.t is None or self.plane is None:
             return []
+        if t - self.t > self.cfg.reset_after:
+            return []  # nothing since the gap's start: the next input starts again
         m = self.model
         x = f.x
         P = f.P
@@ -475,11 +691,13 @@ class ManoeuvreCore:
             cv = -cur[1] * math.sin(psi) + cur[2] * math.cos(psi)
             if math.hypot(u - cu, v - cv) > 0.1:
                 drift_water = math.atan2(v - cv, u - cu)
+        self._judge_motion(t, u, v, math.hypot(vn, ve))
         names = m.names
         std_map = {names[i]: float(std[i]) for i in range(m.n)}
         std_map.update({"u": float(body_std[0]), "v": float(body_std[1]),
                         "a_u": float(body_std[2]), "a_v": float(body_std[3])})
         values: dict[str, Any] = {
+            "converging": self.converging,
             "lat": lat, "lon": lon, "x": float(x[0]), "y": float(x[1]),
             "u": u, "v": v, "r": float(x[R]), "heading": float(x[PSI]), "a_u": a_u, "a_v": a_v,
             "sog": math.hypot(vn, ve), "cog": float(wrap_2pi(math.atan2(ve, vn))),
@@ -504,6 +722,7 @@ class ManoeuvreCore:
         if made is None or rate <= 0.0 or t - made[0] >= 1.0 / rate - 1e-6 or t < made[0]:
             runs = self.predictor.run(x, P, self.Qc)
             rows = self.predictor.predicted(runs, plane.to_geodetic, [c.scale for c in self.calibration])
+            self._blend(t, x, P, runs, rows)
             if self.cfg.ellipse_window > 0.0:
                 for c, (_, _, Ph), row in zip(self.calibration, runs, rows):
                     c.add(t, row["lat"], row["lon"], Ph[0:2, 0:2])
@@ -512,6 +731,39 @@ class ManoeuvreCore:
         if age == 0.0:
             return made[1]
         return [{**row, "dt": round(row["dt"] - age, 6)} for row in made[1]]
+
+    def _blend(self, t: float, x: np.ndarray, P: np.ndarray, runs: list, rows: list[dict[str, float]]) -> None:
+        """Each row's position and heading from its horizon's blend of the candidates
+        (`blend.py`); the ellipse stays the model's, sized on the blend's own errors."""
+        plane = self.plane
+        assert plane is not None
+        x_lf = np.array(x, dtype=float)
+        if self._r_lf is not None:
+            x_lf[R] = self._r_lf
+        runs_lf = self.predictor.run(x_lf, P, self.Qc)
+        if self._raw_fix is not None and t - self._raw_fix[0] <= self.cfg.reset_after:
+            t_fix, lat0, lon0 = self._raw_fix
+            n0, e0 = plane.to_ne(lat0, lon0)
+        else:
+            t_fix, n0, e0 = t, float(x[0]), float(x[1])
+        vf = self.model.ground_velocity(x)
+        vg = self._vg
+        if vg is not None and t - vg[0] <= VG_MAX_AGE:
+            vn, ve = vg[1], vg[2]
+        else:
+            vn, ve = self._track_velocity() or vf
+        psi0 = float(x[PSI])
+        for b, row, (_, x_m, _), (_, x_l, _) in zip(self.blends, rows, runs, runs_lf):
+            ahead = t + b.horizon - t_fix
+            lat_l, lon_l = plane.to_geodetic(float(x_l[0]), float(x_l[1]))
+            lat_s, lon_s = plane.to_geodetic(float(x[0]) + vf[0] * b.horizon, float(x[1]) + vf[1] * b.horizon)
+            lat_d, lon_d = plane.to_geodetic(n0 + vn * ahead, e0 + ve * ahead)
+            cands = np.array([[row["lat"], row["lon"]], [lat_l, lon_l], [lat_s, lon_s], [lat_d, lon_d]])
+            b.add(t, cands)
+            row["lat"], row["lon"] = b.combine(cands)
+            w = b.weights
+            headings = np.array([float(x_m[PSI]), float(x_l[PSI]), psi0, psi0])
+            row["heading"] = float(wrap_2pi(math.atan2(float(w @ np.sin(headings)), float(w @ np.cos(headings)))))
 
     def health(self) -> dict[str, Any]:
         out = self.monitor.snapshot()
@@ -524,12 +776,14 @@ class ManoeuvreCore:
         out["rejected"] = dict(sorted(self.rejected.items()))
         out["events"] = dict(sorted(self.resets.items()))
         out["duplicates"] = self.copies.duplicates()
+        out["problems"] = self.problems()
         out["muted"] = dict(sorted(self.muted.items()))
         out["q_scale"] = {g: round(q.scale, 3) for g, q in self.qscales.items()}
         out["nis_ratio"] = {g: round(q.ratio, 3) for g, q in self.qscales.items()}
         out["nis_in_band"] = {g: q.in_band for g, q in self.qscales.items()}
         out["rcond"] = self._rcond
         out["ellipse_scale"] = {f"{c.horizon:g}": round(c.scale, 3) for c in self.calibration}
+        out["prediction"] = {f"{b.horizon:g}": b.report() for b in self.blends}
         out["sensor_sigma"] = {f"{k}/{s}": [round(x, 6) for x in n.sigma()] for (k, s), n in sorted(self.noise.items())}
         if self.filter is not None and self.filter.ensemble_size():
             out["members"] = self.filter.ensemble_size()
@@ -551,6 +805,17 @@ def _insane(x: np.ndarray, P: np.ndarray) -> str | None:
         if d[i] > top:
             return f"variance {d[i]:.3g} of state {i} beyond {top:g}"
     return None
+
+
+def _say(kind: str, d: np.ndarray) -> str:
+    """A difference between two sources of a kind, in the units a navigator reads."""
+    if kind == "heading":
+        return f"{abs(float(d[0])) / DEG:.1f}°"
+    if kind == "yaw_rate":
+        return f"{abs(float(d[0])) / DEG:.2f}°/s"
+    if kind == "position":
+        return f"{float(np.hypot(d[0], d[1])):.0f} m"
+    return f"{float(np.max(np.abs(d))):.3g} m/s²"
 
 
 def _whiten(y: np.ndarray, S: np.ndarray) -> np.ndarray:

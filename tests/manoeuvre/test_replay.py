@@ -66,3 +66,24 @@ def test_the_recording_holds_the_prediction_and_the_filter_health(scored):
     info = health["estimators"]["manoeuvre"]["info"]["filter"]  # the core's health()
     assert info["divergences"] == 0 and info["running"]
     assert set(info["innovation"]) == {"position", "heading", "yaw_rate", "accel"}
+
+
+def test_two_logs_from_different_days_replay_without_integrating_the_gap(tmp_path):
+    """rst39 (2014-02-19) then hemi (2018-09-07): 4.5 years between their data. The
+    estimators start again after the gap instead of integrating across it (it hung for
+    hours, deaf to SIGTERM); the replay ends in seconds with both logs' estimates."""
+    data = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "nmea0183"
+    logs = [data / "gpsd__test__daemon__rst39.log", data / "gpsd__test__daemon__hemi.log"]
+    if not all(p.is_file() for p in logs):
+        pytest.skip("../shared/data not here")
+    rec = tmp_path / "rec.mcap"
+    done = subprocess.run(EDGED + ["replay", *map(str, logs), "--no-zenoh", "--no-progress", "--record", str(rec)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    from mcap.reader import make_reader
+
+    times = []
+    with rec.open("rb") as f:
+        for _, _, msg in make_reader(f).iter_messages(topics=["/est/manoeuvre"]):
+            times.append(json.loads(msg.data)["t"])
+    assert min(times) < 1.5e9 < max(times)  # estimates of both days

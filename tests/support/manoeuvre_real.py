@@ -38,7 +38,7 @@ from edged_manoeuvre.core import ManoeuvreCore
 from manoeuvre_data import measurements, select
 
 DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
-KINDS = ("position", "heading", "yaw_rate", "accel_body")
+KINDS = ("position", "heading", "yaw_rate", "accel_body", "velocity_ground")
 #: The publish grid (s of data time) and the gap after which it restarts.
 TICK = 0.1
 GAP = 5.0

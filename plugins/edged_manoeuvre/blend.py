@@ -1,0 +1,121 @@
+"""Which prediction to trust, per horizon, learned on the vessel's own track.
+
+Why: a model run ahead is the best predictor of a ship in a steady turn (seed 002's
+"advanced ship predictor"), and the worst one of a yacht whose 1 Hz compass swings ±5°
+with the waves: the yaw rate the filter sees then is the wave's, ±5–15 °/s, and held
+for a minute it turns the prediction through 120–360° (Aava: 8× the error of dead
+reckoning at 30 s). The honest baseline of a short-term predictor is dead reckoning,
+the last fix carried forward at the last SOG/COG. No configuration knows in advance
+which vessel, sea and helmsman it will have; the track does, a minute later.
+
+How: per horizon, a few candidate predictions are made at each prediction time (the
+model with its yaw rate held, the model with the low-frequency yaw rate, dead
+reckoning). When a fix shows where the vessel was at their due time, each candidate's
+error e_i (a 2-vector, m) is kept for `window` seconds. The published prediction is the
+combination Σ w_i·p_i with Σ w_i = 1, w_i ≥ 0 that minimises the windowed squared error
+
+    J(w) = Σ_samples |Σ_i w_i e_i|² = wᵀ G w,    G_ij = Σ_samples e_i · e_j,
+
+the forecast combination of Bates and Granger (*The combination of forecasts*, Oper.
+Res. Q. 20, 1969) with the weights constrained to the simplex, so that it is never
+worse over the window than the best single candidate (each vertex of the simplex is
+one candidate alone): in particular never worse than dead reckoning. The minimum over
+the simplex is found exactly by trying every subset of candidates: on a subset the
+unconstrained minimum is w = G⁻¹1 / 1ᵀG⁻¹1; the best feasible one wins. Until
+`min_samples` errors have come due, dead reckoning alone is published.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import deque
+
+import numpy as np
+
+
+class ForecastBlend:
+    """One horizon's candidates waiting to come due, the window of their errors, and
+    the weights they give."""
+
+    def __init__(self, horizon: float, names: tuple[str, ...], fallback: str, window: float = 600.0,
+                 min_samples: int = 20) -> None:
+        self.horizon = horizon
+        self.names = names
+        self.n = len(names)
+        self.window = window
+        self.min_samples = min_samples
+        self._fallback = names.index(fallback)
+        self._pending: deque[tuple[float, np.ndarray]] = deque()  # (due, candidates' lat/lon (n, 2))
+        self._errors: deque[tuple[float, np.ndarray]] = deque()  # (t due, errors (n, 2))
+        self._G = np.zeros((self.n, self.n))
+        self.weights = np.eye(self.n)[self._fallback]
+        self.samples = 0
+        self.rms = np.full(self.n, math.nan)  # each candidate's RMS error over the window
+
+    def add(self, t: float, latlon: np.ndarray) -> None:
+        """The candidates (n × [lat, lon]) made at t for t + horizon."""
+        self._pending.append((t + self.horizon, np.array(latlon, dtype=float)))
+
+    def due(self, t: float, to_ne, position: tuple[float, float], velocity: tuple[float, float]) -> int:
+        """Judge every prediction due by t against a fix at t (moved back along the
+        velocity to the due time); `to_ne` maps lat, lon into the fix's plane."""
+        n = 0
+        while self._pending and self._pending[0][0] <= t + 1e-9:
+            t_due, cands = self._pending.popleft()
+            back = t - t_due
+            wn = position[0] - velocity[0] * back
+            we = position[1] - velocity[1] * back
+            e = np.array([[pn - wn, pe - we] for pn, pe in (to_ne(float(a), float(b)) for a, b in cands)])
+            if not np.all(np.isfinite(e)):
+                continue
+            self._errors.append((t_due, e))
+            self._G += e @ e.T
+            n += 1
+        if n:
+            while self._errors and self._errors[0][0] < t - self.window:
+                _, old = self._errors.popleft()
+                self._G -= old @ old.T
+            self.samples = len(self._errors)
+            self.rms = np.sqrt(np.maximum(np.diag(self._G), 0.0) / max(self.samples, 1))
+            self.weights = self._solve() if self.samples >= self.min_samples else np.eye(self.n)[self._fallback]
+        return n
+
+    def _solve(self) -> np.ndarray:
+        """argmin wᵀGw on the simplex, by every subset's unconstrained minimum."""
+        G = self._G / self.samples
+        best, best_j = np.eye(self.n)[self._fallback], float(G[self._fallback, self._fallback])
+        for k in range(1, self.n + 1):
+            for sub in itertools.combinations(range(self.n), k):
+                g = G[np.ix_(sub, sub)]
+                g = g + np.eye(k) * 1e-9 * (np.trace(g) / k + 1e-12)  # equal candidates: singular
+                try:
+                    a = np.linalg.solve(g, np.ones(k))
+                except np.linalg.LinAlgError:
+                    continue
+                if a.sum() <= 0.0:
+                    continue
+                w_sub = a / a.sum()
+                if np.any(w_sub < -1e-12):
+                    continue
+                w = np.zeros(self.n)
+                w[list(sub)] = np.clip(w_sub, 0.0, None)
+                w /= w.sum()
+                j = float(w @ G @ w)
+                if j < best_j - 1e-12:
+                    best, best_j = w, j
+        return best
+
+    def forget_pending(self) -> None:
+        """The filter started again: its earlier predictions are not this filter's."""
+        self._pending.clear()
+
+    def combine(self, latlon: np.ndarray) -> tuple[float, float]:
+        """The weighted prediction of candidates (n × [lat, lon]) made now (a few km at
+        most apart: linear in degrees is linear in metres)."""
+        w = self.weights
+        return float(w @ latlon[:, 0]), float(w @ latlon[:, 1])
+
+    def report(self) -> dict:
+        return {"samples": self.samples, "weights": {n: round(float(w), 3) for n, w in zip(self.names, self.weights)},
+                "rms": {n: (None if not math.isfinite(r) else round(float(r), 2)) for n, r in zip(self.names, self.rms)}}
