@@ -50,7 +50,7 @@ class StwConfig(EstimatorConfig):
 
     # Vessel motion (vector mode).
     #: Spectral density of the jerk (m²/s⁵): how quickly the acceleration may change.
-    jerk_density: float = Field(1e-5, gt=0.0, le=1.0)
+    jerk_density: float = Field(1e-6, gt=0.0, le=1.0)
     #: Seconds of IMU samples averaged into one acceleration update.
     accel_average: float = Field(1.0, ge=0.0, le=60.0)
     #: 1-σ of the sway through the water on a straight course (leeway from wind, a
@@ -62,6 +62,20 @@ class StwConfig(EstimatorConfig):
     turn_rate_max_deg: float = Field(0.3, gt=0.0, le=30.0)
     #: Below this speed over ground (m/s) heading − course is not used either.
     min_speed: float = Field(1.0, ge=0.0, le=20.0)
+    #: After a turn the hull goes on swaying (its drift angle decays over tens of
+    #: seconds): heading − course and the log wait this long (s) after the last turn.
+    turn_settle: float = Field(60.0, ge=0.0, le=3600.0)
+
+    # Start-up and gaps.
+    #: No GNSS for longer than this (s of data time): the filter restarts from the next
+    #: measurements instead of predicting across the gap (the current seen before the
+    #: gap comes back as a forecast if it is not older than `forecast_max_age`).
+    reset_after: float = Field(120.0, gt=0.0, le=86_400.0)
+    #: Nothing is published while the ground velocity's 1-σ exceeds this (m/s: a
+    #: filter started from positions alone has 10 m/s), and estimates are marked
+    #: `converging` until it is below `converged_std`.
+    publish_max_std: float = Field(1.0, gt=0.0, le=100.0)
+    converged_std: float = Field(0.3, gt=0.0, le=100.0)
 
     # Current (vector mode): three hypotheses mixed by how well each predicts the
     # forecasts and heading − course (interacting multiple models, current.py).
@@ -78,8 +92,11 @@ class StwConfig(EstimatorConfig):
     #: 1-σ of the current before any forecast, m/s (no forecast: no current assumed,
     #: with this uncertainty).
     current_prior_sigma: float = Field(1.0, gt=0.0, le=10.0)
-    #: The current's 1-σ never grows beyond this, m/s (no ocean current is unbounded).
-    current_sigma_max: float = Field(2.0, gt=0.0, le=20.0)
+    #: The current's 1-σ never grows beyond this, m/s: an unobserved current is still
+    #: one of the sea's (its spread does not grow with time), so by default the prior's.
+    #: 2.0 once let the current's rate, integrated over hours without a forecast, grow
+    #: σ_STW to 1.9 m/s on a 4-h yacht log (plaka). Raise it in strong tidal streams.
+    current_sigma_max: float = Field(1.0, gt=0.0, le=20.0)
 
     #: Forecasts whose innovations adapt the current's process noise (0: no adaptation)
     #: and the largest factor the adaptation may apply.
@@ -109,6 +126,8 @@ class StwConfig(EstimatorConfig):
     # The log under test.
     #: Warn when the log's offset exceeds this (m/s) with 95 % confidence.
     dvl_tolerance: float = Field(0.2, gt=0.0, le=10.0)
+    #: `dvl_bias` is published (not null) once its 1-σ is below this, m/s.
+    dvl_observable_std: float = Field(0.15, gt=0.0, le=10.0)
     #: Warn when the log's scale error exceeds this (fraction) with 95 % confidence.
     dvl_scale_tolerance: float = Field(0.03, gt=0.0, le=1.0)
     #: Fit the log's scale error k as well as its offset b. Off by default: k is

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter
+from collections import Counter, deque
 from typing import Any
 
 from edged.innovation import InnovationMonitor
@@ -19,8 +19,9 @@ from edged.records import Estimate, Measurement
 
 from .config import StwConfig
 from .heading import HeadingTrack
-from .paper import PaperModel
+from .paper import PaperModel, haversine
 from .vector import DVL_GATE, VectorModel
+from .watch import LogWatch, NisWatch
 
 log = logging.getLogger("edged.stw")
 
@@ -48,6 +49,10 @@ MAX_CURRENT = 10.0
 MAX_ACCEL = 20.0
 #: The log is fitted only against an STW known better than this (m/s).
 DVL_FIT_MAX_STD = 0.5
+#: Kinds that move the ground filter: a gap in them is a gap in the data.
+GROUND = frozenset({"position", "velocity_ground"})
+#: Kinds whose NIS health watches (the log has its own watch: it never moves the estimate).
+WATCHED = ("position", "velocity_ground", "accel_body", "heading_course", "current")
 
 
 class StwCore:
@@ -70,6 +75,19 @@ class StwCore:
         self._warnings: list[str] = []
         self._pending_forecast: tuple[float, float, float, float] | None = None
         self._forecast_nis: list[float] = []
+        #: The last forecast used (t, set, drift, σ): it starts a restarted filter.
+        self._used_forecast: tuple[float, float, float, float] | None = None
+        self._ground_t: float | None = None  # data time of the last GNSS measurement
+        self._fix: tuple[float, float] | None = None  # the last position taken
+        self._turn_t = -math.inf  # data time of the last sign of a turn
+        self._log_forecast = False  # the log's current copy has seen a forecast
+        self._recent: dict[str, deque[bool]] = {}  # gate verdicts per kind (True: gated)
+        self.nis_watch = NisWatch()
+        self.log_watch = LogWatch(cfg.min_speed)
+        self._last_t: float | None = None
+        self._carry_distance: float | None = None  # the distance before a gap, for the next filter
+        self._published_distance = 0.0
+        self._log_reason: str | None = "no estimate yet"  # why dvl_bias is null (None: published)
 
     # ------------------------------------------------------------------ inputs
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
@@ -78,6 +96,11 @@ class StwCore:
             return []
         t = rec.t
         v = rec.values
+        if self._last_t is None or t > self._last_t:
+            self._last_t = t
+        if kind in GROUND and self._ground_t is not None and t - self._ground_t > self.cfg.reset_after:
+            self._restart(t, f"no GNSS for {t - self._ground_t:.0f} s (reset_after {self.cfg.reset_after:g} s): "
+                             "restarted from the next measurements")
         if isinstance(self.model, PaperModel):
             for nis in self.model.advance(t):
                 self.monitor.update("gnss", nis, 2)
@@ -96,6 +119,31 @@ class StwCore:
         self._constant_current(t)
         return []
 
+    def _restart(self, t: float, reason: str) -> None:
+        """A gap in the data: a new filter, started by the measurements that follow.
+        Predicting across the gap would turn the last acceleration and the current's
+        rate into hundreds of m/s; the distance goes on from where it was, plus the
+        straight line from the last fix before the gap to the first one after it (the
+        least the vessel can have made good)."""
+        old = self.model
+        last = None
+        if self._ground_t is not None and old.ready:
+            last = old.estimate(self._ground_t) if isinstance(old, PaperModel) else old.estimate(self._ground_t, None)
+        distance = float(last["distance"]) if last is not None else 0.0
+        self.model = VectorModel(self.cfg) if self.cfg.mode == "vector" else PaperModel(self.cfg)
+        self._carry_distance = distance
+        self._accel = None
+        self._gated_in_row.clear()
+        self._forecast_nis.clear()
+        self._forecast_t = -math.inf
+        self._constant_t = -math.inf
+        self._log_forecast = False
+        self._ground_t = None
+        if self._used_forecast is not None:
+            self._pending_forecast = self._used_forecast
+        self.monitor.reset(reason, t)
+        log.info("stw: %s", reason)
+
     def _on_position(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
         lat, lon = v.get("lat"), v.get("lon")
         if not _finite(lat, lon):
@@ -104,6 +152,15 @@ class StwCore:
         if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
             self.rejected["position.implausible"] += 1
             return
+        self._ground_t = t
+        carry = self._carry_distance
+        if carry is not None and isinstance(self.model, VectorModel) and not self.model.ready:
+            if self._fix is not None:
+                carry += haversine(self._fix[0], self._fix[1], lat, lon)
+            # Never below what was published (dead reckoning in the gap's first minutes).
+            self.model.distance = max(carry, self._published_distance)
+            self._carry_distance = None
+        self._fix = (lat, lon)
         m = self.model
         if isinstance(m, PaperModel):
             m.position(t, lat, lon)
@@ -121,6 +178,11 @@ class StwCore:
         if sog > self.cfg.max_sog:
             self.rejected["velocity_ground.implausible"] += 1
             return
+        self._ground_t = t
+        carry = self._carry_distance
+        if carry is not None and isinstance(self.model, VectorModel) and not self.model.ready:
+            self.model.distance = max(carry, self._published_distance)  # closed by a SOG: no line
+            self._carry_distance = None
         m = self.model
         if isinstance(m, PaperModel):
             m.velocity(t, sog, cog)
@@ -134,13 +196,21 @@ class StwCore:
                 res = m.cross(t, heading)
                 if res is not None:
                     nis, used = res
+                    self._verdict("heading_course", not used)
                     if used:
                         self.monitor.update("heading_course", nis, 1)
                     else:
                         self.monitor.gated("heading_course")
                         self.rejected["heading_course.gate"] += 1
 
+    def _verdict(self, kind: str, gated: bool) -> None:
+        q = self._recent.get(kind)
+        if q is None:
+            q = self._recent[kind] = deque(maxlen=50)
+        q.append(gated)
+
     def _gate_result(self, kind: str, nis: float | None, used: bool, reset: Any, what: str) -> None:
+        self._verdict(kind, not used)
         if used:
             self._gated_in_row[kind] = 0
             if nis is not None:
@@ -208,6 +278,7 @@ class StwCore:
         nis, used = m.accel(blk[1], blk[2] / n, blk[3] / n, n)
         if nis is None:
             return
+        self._verdict("accel_body", not used)
         if used:
             self.monitor.update("accel_body", nis, 2)
         else:
@@ -243,6 +314,8 @@ class StwCore:
         if isinstance(m, PaperModel):
             m.forecast(t, set_, drift)
             self._forecast_t = t
+            self._log_forecast = True
+            self._used_forecast = (t, set_, drift, sigma)
             return
         # Forecasts closer together than their errors decorrelate count for less.
         gap = t - self._forecast_t
@@ -251,6 +324,7 @@ class StwCore:
             var = sigma * sigma * 1e6
         c_n, c_e = drift * math.cos(set_), drift * math.sin(set_)
         nis = m.forecast_nis(t, c_n, c_e, var)
+        self._verdict("current", not nis <= self.cfg.forecast_gate)
         if not nis <= self.cfg.forecast_gate:
             self.monitor.gated("current")
             self.rejected["current.gate"] += 1
@@ -265,6 +339,8 @@ class StwCore:
         self._gated_in_row["current"] = 0
         self.monitor.update("current", nis, 2)
         m.forecast(t, c_n, c_e, var)
+        self._log_forecast = True
+        self._used_forecast = (t, set_, drift, sigma)
         window = self.cfg.forecast_adapt_window
         if window and m.current is not None:
             self._forecast_nis.append(nis)
@@ -292,28 +368,52 @@ class StwCore:
             return
         self._dvl = (t, z)
         m = self.model
+        est = None
+        if isinstance(m, VectorModel) and m.ready:
+            est = m.estimate(t, self._fresh_heading(t))
+        elif isinstance(m, PaperModel) and m.ready:
+            est = m.estimate(t)
+        if est is not None and est["stw_std"] > DVL_FIT_MAX_STD:
+            est = None
+        stw = None if est is None else est["stw"]
+        stw_std = None if est is None else est["stw_std"]
+        verdict = self._fit_log(t, z, est)
+        self.log_watch.reading(t, z, stw, stw_std, verdict)
+
+    def _fit_log(self, t: float, z: float, est: dict[str, Any] | None) -> bool | None:
+        """One log reading into the fit of its offset; returns whether the gate
+        rejected it (None: not tried, and why is counted)."""
+        m = self.model
         if self._turning(t):
             self.rejected["water_speed.turning"] += 1
-            return
+            return None
+        if not self._log_forecast:
+            # Without a forecast the log's offset and the current along the ship are one
+            # unknown (dvl − SOG = b − c·x̂): nothing to fit yet.
+            self.rejected["water_speed.no_current"] += 1
+            return None
+        if est is None:
+            self.rejected["water_speed.unconverged"] += 1
+            return None
+        if est["stw"] < self.cfg.min_speed:
+            self.rejected["water_speed.slow"] += 1
+            return None
+        dry = self.log_watch.left_out
         if isinstance(m, PaperModel):
-            nis, used = m.dvl(t, z, DVL_GATE)
+            nis, used = m.dvl(t, z, DVL_GATE, dry=dry)
         else:
-            est = m.estimate(t, self._fresh_heading(t)) if m.ready else None
-            if est is None or est["stw"] < self.cfg.min_speed:
-                self.rejected["water_speed.slow"] += 1
-                return
-            if est["stw_std"] > DVL_FIT_MAX_STD:
-                # Against an STW that is not known yet, a fit says nothing.
-                self.rejected["water_speed.unconverged"] += 1
-                return
-            nis, used = m.dvl(t, z, self._fresh_heading(t))
+            nis, used = m.dvl(t, z, self._fresh_heading(t), dry=dry)
         if nis is None:
-            return
+            return None
+        if dry:
+            self.rejected["water_speed.left_out"] += 1
+            return not used
         if used:
             self.monitor.update("water_speed", nis, 1)
         else:
             self.monitor.gated("water_speed")
             self.rejected["water_speed.gate"] += 1
+        return not used
 
     # ----------------------------------------------------------------- helpers
     def _fresh_heading(self, t: float) -> float | None:
@@ -323,6 +423,13 @@ class StwCore:
         return self.heading.smoothed()
 
     def _turning(self, t: float) -> bool:
+        """Turning now, or less than `turn_settle` s ago: the hull still sways."""
+        if self._turning_now(t):
+            self._turn_t = t
+            return True
+        return t - self._turn_t < self.cfg.turn_settle
+
+    def _turning_now(self, t: float) -> bool:
         rot = self._rot
         if rot is not None and t - rot[0] <= YAW_RATE_MAX_AGE:
             r = rot[1]
@@ -337,6 +444,10 @@ class StwCore:
     # ------------------------------------------------------------------ output
     def tick(self, t: float) -> list[Estimate]:
         m = self.model
+        if self._ground_t is None or t - self._ground_t > self.cfg.reset_after:
+            # Nothing since the gap began: a prediction across it would be made up (the
+            # host republishes the last estimate as stale meanwhile).
+            return []
         if isinstance(m, PaperModel):
             for nis in m.advance(t):
                 self.monitor.update("gnss", nis, 2)
@@ -346,14 +457,43 @@ class StwCore:
             values = m.estimate(t, self._fresh_heading(t))
         if values is None:
             return []
+        ground_std = m.ground_std(t)
+        if not ground_std <= self.cfg.publish_max_std:
+            return []  # the ground velocity is not known yet (a start from positions alone)
+        values["converging"] = ground_std > self.cfg.converged_std
         dvl = self._dvl
         values["dvl_stw"] = dvl[1] if dvl is not None and t - dvl[0] <= DVL_MAX_AGE else None
         values.setdefault("dvl_bias", None)
         values.setdefault("dvl_scale", None)
         values.setdefault("dvl_std", None)
+        self._log_reason = self._log_observable(values)
+        if self._log_reason is not None:
+            values["dvl_bias"] = values["dvl_scale"] = values["dvl_std"] = None
         values["mode"] = self.cfg.mode
         self._check_log(values)
+        self._published_distance = max(self._published_distance, float(values["distance"]))
+        snap = self.monitor.snapshot()["innovation"]
+        recent = {k: sum(q) / len(q) for k, q in self._recent.items() if len(q) >= 10}
+        self.nis_watch.check(t, {k: v for k, v in snap.items() if k in WATCHED},
+                             {k: v for k, v in recent.items() if k in WATCHED})
         return [Estimate("stw", "stw", t, values)]
+
+    def _log_observable(self, v: dict[str, Any]) -> str | None:
+        """Why `dvl_bias` is null, or None when it is published."""
+        if not self.seen.get("water_speed"):
+            return "no Doppler/EM log reading"
+        if self.log_watch.left_out:
+            return str(self.log_watch.problem)
+        if not self._log_forecast:
+            return ("no current forecast: the log's offset and the current along the ship are one unknown "
+                    "(dvl − SOG = b − current along), so the offset is not observable")
+        std = v.get("dvl_std")
+        if std is None:
+            return "not fitted yet (the STW estimate is not converged, or the vessel is turning or slow)"
+        if not std["bias"] <= self.cfg.dvl_observable_std:
+            return (f"offset σ {std['bias']:.2f} m/s above dvl_observable_std {self.cfg.dvl_observable_std:.2f}: "
+                    "not observable yet")
+        return None
 
     def _check_log(self, v: dict[str, Any]) -> None:
         """Warn (in health, and in the log once per change) when the log is off: when
@@ -395,6 +535,11 @@ class StwCore:
         out["missing"] = missing
         out["rejected"] = dict(sorted(self.rejected.items()))
         out["warnings"] = list(self._warnings)
+        out["dvl"] = {"published": self._log_reason is None, "reason": self._log_reason}
+        problems = list(self.nis_watch.problems.values())
+        if self.log_watch.problem is not None:
+            problems.append(self.log_watch.problem)
+        out["problems"] = problems
         if isinstance(self.model, VectorModel):
             out.update(self.model.health())
             sigma = self.model.current_sigma()

@@ -21,6 +21,8 @@ Measurements:
     forecast            z = [c_n, c_e]                     R = σ_f²·I
     heading vs course   z = v_g·ŷ = c·ŷ + s                (ŷ: the ship's starboard axis;
                         the hull's velocity through the water is along the ship but for s)
+                        a Schmidt update: the current along the ship (c·x̂, ċ·x̂) is held,
+                        only the part across the ship and s move (`gating.consider_update`)
 The Doppler log is not a measurement of this filter (`dvl.py` fits it).
 """
 
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gating import cap_variance, innovation, update
+from .gating import cap_variance, consider_update, innovation, update
 
 C, RATE, S = slice(0, 2), slice(2, 4), 4
 N_STATE = 5
@@ -153,12 +155,15 @@ class CurrentFilter:
         self.y, self.P = ys, Ps
         self.mu = c
 
-    def _update_modes(self, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> None:
+    def _update_modes(self, z: np.ndarray, R: np.ndarray, H: np.ndarray, held: np.ndarray | None = None) -> None:
         like = np.zeros(len(self.modes))
         for m, (_, q) in enumerate(self.modes):
             _, S, nis = innovation(self.y[m], self.P[m], z, R, H)
             like[m] = math.exp(-0.5 * min(nis, 200.0)) / math.sqrt(max(np.linalg.det(S), 1e-300))
-            self.y[m], self.P[m] = update(self.y[m], self.P[m], z, R, H)
+            if held is None:
+                self.y[m], self.P[m] = update(self.y[m], self.P[m], z, R, H)
+            else:
+                self.y[m], self.P[m] = consider_update(self.y[m], self.P[m], z, R, H, held)
             if q is None:
                 self.y[m][RATE] = 0.0
                 self.P[m] = self._pin(self.P[m])
@@ -203,7 +208,15 @@ class CurrentFilter:
         _, _, nis = innovation(y, P, np.array([z]), np.array([[var]]), H)
         if not nis <= gate:  # NaN fails too
             return nis, False
-        self._update_modes(np.array([z]), np.array([[var]]), H)
+        # The look sees the current across the ship; along the ship (its complement) it
+        # sees only the heading's wander times the speed, and the leeway changing with
+        # the heading: that component and its rate are held (Schmidt update), so the
+        # current along the ship comes from the forecasts alone (ESTIMATORS.md §1).
+        ahead = np.array([starboard[1], -starboard[0]])  # x̂ = ŷ turned 90° to port
+        held = np.zeros((N_STATE, 2))
+        held[C, 0] = ahead
+        held[RATE, 1] = ahead
+        self._update_modes(np.array([z]), np.array([[var]]), H, held)
         return nis, True
 
     def mode_probabilities(self) -> dict[str, float]:

@@ -83,8 +83,10 @@ class LogCalibration:
         self.predict(t)
         self.x, self.P = update(self.x, self.P, np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
 
-    def reading(self, t: float, z: float, ahead: np.ndarray, v_g: np.ndarray, var: float, gate: float) -> tuple[float, bool]:
-        """One log reading along the ship; `var` includes the ground velocity's share."""
+    def reading(self, t: float, z: float, ahead: np.ndarray, v_g: np.ndarray, var: float, gate: float,
+                dry: bool = False) -> tuple[float, bool]:
+        """One log reading along the ship; `var` includes the ground velocity's share.
+        `dry`: the gate's verdict only (a log left out is still watched), no update."""
         self.predict(t)
         x = self.x
         g_along = float(v_g @ ahead)
@@ -100,6 +102,8 @@ class LogCalibration:
         _, _, nis = innovation(x, self.P, zl, np.array([[var]]), H)
         if not math.isfinite(nis) or nis > gate:
             return nis, False
+        if dry:
+            return nis, True
         self.x, self.P = update(x, self.P, zl, np.array([[var]]), H)
         self.updates += 1
         return nis, True

@@ -32,3 +32,24 @@ def cap_variance(P: np.ndarray, idx: slice | list[int], var_max: float) -> np.nd
     if np.all(d == 1.0):
         return P
     return P * np.outer(d, d)
+
+
+def consider_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray,
+                    held: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A Schmidt ("consider") Kalman update: the optimal gain K = PHᵀS⁻¹ with its
+    component along each column of `held` removed, K ← (I − A Aᵀ) K for the orthonormal
+    columns A of `held` (n × m), then the Joseph form
+        P' = (I − KH) P (I − KH)ᵀ + K R Kᵀ,
+    which is the covariance of the update for *any* gain. The held directions of the
+    state are not moved by this measurement, but their uncertainty still enters the
+    innovation covariance S and the cross-covariances stay right, so P' does not claim
+    more than the measurement gave. Why: a measurement that would observe a direction
+    only through errors the model does not carry (heading − course seeing the current
+    *along* the ship through the heading's wander) must not be allowed to."""
+    S = H @ P @ H.T + R
+    K = np.linalg.solve(S, H @ P).T
+    K = K - held @ (held.T @ K)
+    x = x + K @ (z - H @ x)
+    I_KH = np.eye(P.shape[0]) - K @ H
+    P = I_KH @ P @ I_KH.T + K @ R @ K.T
+    return x, 0.5 * (P + P.T)

@@ -162,7 +162,7 @@ class PaperModel:
                 f.P[D, D] = f.sigma_d**2
             self._d = 0.0
             return None
-        return self._d + _haversine(used[1], used[2], fix[1], fix[2])
+        return self._d + haversine(used[1], used[2], fix[1], fix[2])
 
     def position(self, t: float, lat: float, lon: float) -> None:
         self._fix = (t, lat, lon)
@@ -187,14 +187,20 @@ class PaperModel:
         if self.log is not None:
             self.log.forecast(t, drift * math.cos(set_rad), drift * math.sin(set_rad), self.cfg.forecast_sigma**2)
 
-    def dvl(self, t: float, z: float, gate: float) -> tuple[float | None, bool]:
+    def dvl(self, t: float, z: float, gate: float, dry: bool = False) -> tuple[float | None, bool]:
         """The log against the ground speed along the course and the log fit's current."""
         if self.log is None or self._sog is None:
             return None, False
         _, sog, cog = self._sog
         ahead = np.array([math.cos(cog), math.sin(cog)])
         var = self.cfg.dvl_sigma**2 + self.cfg.sog_sigma**2
-        return self.log.reading(t, z, ahead, sog * ahead, var, gate)
+        return self.log.reading(t, z, ahead, sog * ahead, var, gate, dry)
+
+    def ground_std(self, t: float) -> float:
+        """1-σ of the filter's SOG (m/s)."""
+        if self.f is None:
+            return math.inf
+        return math.sqrt(max(float(self.f.P[U_SOG, U_SOG]), 0.0))
 
     def estimate(self, t: float) -> dict | None:
         f = self.f
@@ -217,7 +223,7 @@ class PaperModel:
         return out
 
 
-def _haversine(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+def haversine(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     p1, p2 = math.radians(lat1), math.radians(lat2)
     dp, dl = p2 - p1, math.radians(lon2 - lon1)
     h = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2

@@ -145,7 +145,8 @@ class VectorModel:
         assert self.current is not None
         self.current.inflate(self.cfg.current_prior_sigma)
 
-    def dvl(self, t: float, stw_long: float, heading: float | None) -> tuple[float | None, bool]:
+    def dvl(self, t: float, stw_long: float, heading: float | None, dry: bool = False) -> tuple[float | None, bool]:
+        """The log into its fit (`dry`: only its gate's verdict, nothing fitted)."""
         g, cur = self.ground, self.current
         if g is None or cur is None:
             return None, False
@@ -153,8 +154,8 @@ class VectorModel:
         ahead = unit(heading) if heading is not None else v / max(float(math.hypot(*v)), 1e-9)
         var = self.cfg.dvl_sigma**2 + float(ahead @ g.P[VEL, VEL] @ ahead)
         assert self.log is not None
-        nis, used = self.log.reading(t, stw_long, ahead, v.copy(), var, DVL_GATE)
-        self.dvl_updates += used
+        nis, used = self.log.reading(t, stw_long, ahead, v.copy(), var, DVL_GATE, dry)
+        self.dvl_updates += used and not dry
         return nis, used
 
     # --- output ---
@@ -191,6 +192,13 @@ class VectorModel:
         if self.log is not None:
             out.update(self.log.values())
         return out
+
+    def ground_std(self, t: float) -> float:
+        """1-σ of the ground velocity at t along its worst axis (m/s)."""
+        if self.ground is None:
+            return math.inf
+        _, P = self.ground.predicted(t)
+        return math.sqrt(max(float(np.linalg.eigvalsh(P[VEL, VEL])[-1]), 0.0))
 
     def current_sigma(self) -> float | None:
         if self.current is None:

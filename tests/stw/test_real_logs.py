@@ -247,3 +247,60 @@ def test_without_a_forecast_the_published_stw_sigma_covers_the_doppler_log(tmp_p
         f"{log}: {len(outside)} of {len(pairs)} estimates further from the log than 3σ + {LOG_ALLOWANCE} m/s; "
         f"first (t, stw, stw_std, dvl_stw): {outside[:3]}"
     )
+
+
+# --- issue 30: start-up, the log under test, and a yacht's heading (figures measured on
+# the shared logs when these were set, beside each threshold) ---------------------------
+STARTS = [
+    "nmea0183/gpsd__test__daemon__bundg_zeus_9.log",  # first estimate was 0.0 ± 14.2 m/s
+    "n2k/canboat__samples__furuno-fap7011c-autopilot-maneuvers.raw",
+    "nmea0183/signalk-server__samples__plaka.log",
+    "n2k/signalk-server__samples__aava-n2k.data",
+]
+
+
+@pytest.mark.parametrize("log", STARTS)
+def test_no_estimate_claims_to_know_nothing(tmp_path_factory, log):
+    """Nothing is published before the ground speed is known: no 0 ± 14 m/s start, and
+    no σ beyond what an unknown current (current_sigma_max 1 m/s) and a known ground
+    velocity give (measured: at most 1.29 on furuno's start, 1.03 elsewhere)."""
+    r = replayed(tmp_path_factory, log)
+    _ran(r, log)
+    assert r.est
+    worst = max(e["stw_std"] for e in r.est)
+    assert worst < 1.5, worst
+    first = r.est[0]
+    assert first["stw"] > 1.0 and abs(first["stw"] - first["sog"]) < 2.0 * first["stw_std"], first
+
+
+AAVA = "n2k/signalk-server__samples__aava-n2k.data"
+
+
+def test_aava_stw_stays_with_the_sog_and_the_log(tmp_path_factory):
+    """A sailing yacht, 1 Hz heading, no forecast: STW was 0.88 m/s above both the log and
+    the SOG (heading − course read as a current along the ship). Now the current along
+    the ship stays unknown; STW is SOG within its σ, and near the log (the log reads
+    0.15 m/s under the SOG: measured median |stw − log| 0.15, |stw − sog| 0.013)."""
+    r = replayed(tmp_path_factory, AAVA)
+    _ran(r, AAVA)
+    est = [e for e in r.est if not e["stale"]]
+    d_sog = sorted(abs(e["stw"] - e["sog"]) for e in est)
+    d_log = sorted(abs(e["stw"] - e["dvl_stw"]) for e in est if e["dvl_stw"] is not None)
+    assert d_sog[len(d_sog) // 2] < 0.1 and d_sog[-1] < 0.3, (d_sog[len(d_sog) // 2], d_sog[-1])
+    assert d_log[len(d_log) // 2] < 0.3, d_log[len(d_log) // 2]
+    assert max(e["current"] for e in est) < 0.5  # measured 0.19: no 0.8 m/s made up
+    assert all(abs(e["stw"] - e["dvl_stw"]) <= 3 * e["stw_std"] + LOG_ALLOWANCE for e in est if e["dvl_stw"] is not None)
+
+
+@pytest.mark.parametrize("log", [AAVA, "nmea0183/signalk-server__samples__plaka.log"])
+def test_without_a_forecast_dvl_bias_is_null_and_health_says_why(tmp_path_factory, log):
+    """aava warned "Doppler log reads 1.74 m/s low" with the log 0.16 under the SOG; plaka
+    never fitted. Without a forecast the offset is not observable: null, reason in
+    health, no warning, no problem."""
+    r = replayed(tmp_path_factory, log)
+    _ran(r, log)
+    assert all(e["dvl_bias"] is None and e["dvl_std"] is None for e in r.est)
+    filt = r.worker["info"]["filter"]
+    assert filt["dvl"]["published"] is False and "no current forecast" in filt["dvl"]["reason"], filt["dvl"]
+    assert not filt["warnings"], filt["warnings"]
+    assert r.worker.get("problems", []) == [], r.worker.get("problems")
