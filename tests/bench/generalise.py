@@ -147,9 +147,35 @@ def _order(fld: str) -> tuple[int, str]:
     return (ORDER.index(fld) if fld in ORDER else len(ORDER), fld)
 
 
+#: The summary's columns: (estimate, field), each shown as the ratio to its best sensor.
+SUMMARY = (("manoeuvre", "position"), ("manoeuvre", "sog"), ("manoeuvre", "cog"), ("manoeuvre", "r"),
+           ("manoeuvre", "heading"), ("stw", "sog"), ("stw", "stw"))
+
+
+def summary(acc: dict[tuple[str, str, str, str], dict[str, Any]], vessels: list[str], suites: list[str]) -> str:
+    """One row per suite × vessel: each field's ratio to its best sensor (`!` above
+    1.0, `-` when the estimator published nothing), and stw against the naive."""
+    rows = []
+    for suite in suites:
+        for vessel in vessels:
+            label = f"{vessel}-{suite}"
+            cells = [suite, vessel]
+            for est, fld in SUMMARY:
+                a = next((v for k, v in acc.items() if k[:3] == (label, est, fld)), None)
+                e, sn = (_rms(a["est"]), _rms(a["sensor"])) if a else (None, None)
+                ratio = e / sn if e is not None and sn else None
+                cells.append("-" if ratio is None else f"{ratio:.2f}{' !' if ratio > 1.0 else ''}")
+            a = next((v for k, v in acc.items() if k[:3] == (label, "stw", "stw")), None)
+            e, n = (_rms(a["est"]), _rms(a["naive"])) if a else (None, None)
+            cells += [num(e), num(n), "-" if not n or e is None else f"{e / n:.2f}"]
+            rows.append(cells)
+    head = ["suite", "vessel"] + [f"{e}.{f} /sensor" for e, f in SUMMARY] + ["stw RMSE m/s", "naive m/s", "stw/naive"]
+    return "### summary: each field's RMSE over its best raw sensor's\n\n" + table(head, rows)
+
+
 def grid_report(results: list[dict[str, Any]], vessels: list[str], suites: list[str]) -> str:
     acc = grid_rows(results)
-    parts = []
+    parts = [summary(acc, vessels, suites)]
     flagged = []
     for suite in suites:
         rows = []

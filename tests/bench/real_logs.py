@@ -3,11 +3,12 @@
 
     .venv/bin/python tests/bench/real_logs.py [log ...] [--jobs 2] [--out DIR] [--reuse]
 
-The logs are tests/support/manoeuvre_real.py's `LOGS` (those present), each replayed as
-a user would: `edged replay LOG --no-zenoh --record` with the built-in default
+The logs are tests/support/manoeuvre_real.py's `LOGS` (those present) and every other
+file of the data folder (`--listed`: only the former), each replayed as a user would: `edged replay LOG --no-zenoh --record` with the built-in default
 configuration (`--date` where the log needs one). From the recording:
-- underway: the median GNSS SOG above 0.5 m/s (or the fixes' speed over 10 s when the
-  log has no SOG); the berth logs are dirona, susteranna, susteranna2020 and can0-1;
+- state: underway when the median GNSS SOG is above 0.5 m/s (or the fixes' speed over
+  10 s when the log has no SOG), else still; the berth logs are dirona, susteranna,
+  susteranna2020 and can0-1; every log with GNSS fixes is tabled;
 - prediction (est/manoeuvre `predicted`, the rows made at an estimate's own instant,
   dt within 0.05 s of 10, 30 and 60 s): the error at the due time against the GNSS fixes
   of the most frequent position source interpolated to it (only where fixes lie within
@@ -40,7 +41,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "support"))
 
 from harness import DEG, health_of, num, problems_seen, read, replay, table  # noqa: E402
-from manoeuvre_real import DATA, LOGS  # noqa: E402
+from manoeuvre_real import DATA, LOGS, Log  # noqa: E402
 
 from edged.geo import LocalPlane  # noqa: E402
 
@@ -131,8 +132,23 @@ def _velocity(t: float, tf: np.ndarray, ne: np.ndarray, k: int, vel: tuple[np.nd
     return (ne[k] - ne[i0]) / (tf[k] - tf[i0])
 
 
-def analyse(name: str, out: Path, reuse: bool, data: Path = DATA) -> dict[str, Any]:
-    log = LOGS[name]
+def catalogue(data: Path, listed_only: bool) -> dict[str, Log]:
+    """manoeuvre_real's logs, then (unless `listed_only`) every other file under
+    `data` (nmea0183/, n2k/) by the name after its repository prefix: a log the list
+    leaves out (no heading, a format it does not feed) is still a log a user replays."""
+    logs = {n: log for n, log in LOGS.items() if (data / log.path).is_file()}
+    if listed_only:
+        return logs
+    known = {log.path for log in LOGS.values()}
+    for f in sorted(p for d in ("nmea0183", "n2k") for p in (data / d).glob("*") if p.is_file()):
+        rel = f"{f.parent.name}/{f.name}"
+        if rel not in known:
+            name = f.name.split("__")[-1].rsplit(".", 1)[0]
+            logs.setdefault(name, Log(rel, "(not in manoeuvre_real.LOGS)", u_max=math.inf, v_max=math.inf))
+    return logs
+
+
+def analyse(name: str, log: Log, out: Path, reuse: bool, data: Path = DATA) -> dict[str, Any]:
     d = out / name
     res_file = d / "result.json"
     if reuse and res_file.exists():
@@ -141,7 +157,7 @@ def analyse(name: str, out: Path, reuse: bool, data: Path = DATA) -> dict[str, A
     rec_path = d / "run.mcap"
     extra = ["--date", log.date] if log.date else []
     done = replay([data / log.path, *extra], rec_path, timeout=900)
-    res: dict[str, Any] = {"log": name, "replay_rc": done.rc, "replay_said": done.stderr_tail if done.rc else ""}
+    res: dict[str, Any] = {"log": name, "path": log.path, "replay_rc": done.rc, "replay_said": done.stderr_tail if done.rc else ""}
     if not rec_path.exists():
         res_file.write_text(json.dumps(res))
         return res
@@ -214,7 +230,7 @@ def report(results: list[dict[str, Any]]) -> str:
     summary = []
     for r in results:
         name = r["log"]
-        lines = [f"### {name}: {LOGS[name].path}",
+        lines = [f"### {name}: {r.get('path')}",
                  f"replay rc {r['replay_rc']}{(' — ' + r['replay_said']) if r.get('replay_said') else ''}; "
                  f"underway {r.get('underway')} (median GNSS SOG {num(r.get('median_gnss_sog_kn'))} kn); "
                  f"berth {r.get('berth')}; estimates {r.get('estimates')}"]
@@ -247,38 +263,42 @@ def report(results: list[dict[str, Any]]) -> str:
         best_h = min((abs(x["median"]) for x in hd.values()), default=None)
         hm = hh.get("manoeuvre", {})
         summary.append([name, "berth" if r.get("berth") else ("underway" if r.get("underway") else "still"),
+                        num(r.get("median_gnss_sog_kn")),
                         r["replay_rc"], " / ".join(ratios), " / ".join(cover), num(sm.get("manoeuvre")),
                         num(sm.get("gnss")), f"{num(best_h)} / {num(worst_h)}" if hd else "-",
                         f"{hm.get('not_ok', 0)}/{hm.get('snapshots', 0)}", hm.get("problems", "-")])
     parts.insert(0, "### summary\n\n" + table(
-        ["log", "state", "replay rc", "pred/DR 10/30/60 s", "in 2σ % 10/30/60", "max SOG est kn", "max SOG GNSS kn",
+        ["log", "state", "median GNSS SOG kn", "replay rc", "pred/DR 10/30/60 s", "in 2σ % 10/30/60", "max SOG est kn", "max SOG GNSS kn",
          "|heading − source| median ° (closest / farthest source)", "manoeuvre ok:false", "manoeuvre problems"], summary))
     return "\n\n".join(parts)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("logs", nargs="*", help=f"some of {', '.join(LOGS)} (default: all present)")
+    ap.add_argument("logs", nargs="*", help=f"some of {', '.join(LOGS)} or of the other files' names "
+                    "(default: every log present)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("real-logs-out"))
     ap.add_argument("--reuse", action="store_true", help="keep logs whose result.json exists")
     ap.add_argument("--data", type=Path, default=DATA, help=f"the logs' folder (default {DATA})")
+    ap.add_argument("--listed", action="store_true", help="only manoeuvre_real.LOGS, not every file of --data")
     a = ap.parse_args()
-    names = a.logs or [n for n in LOGS if (a.data / LOGS[n].path).is_file()]
-    unknown = [n for n in names if n not in LOGS]
+    logs = catalogue(a.data, a.listed)
+    names = a.logs or list(logs)
+    unknown = [n for n in names if n not in logs]
     if unknown:
-        sys.exit(f"no log {', '.join(unknown)} (there are {', '.join(LOGS)})")
+        sys.exit(f"no log {', '.join(unknown)} under {a.data} (there are {', '.join(logs)})")
     if not names:
         sys.exit(f"no log found under {a.data}")
     a.out.mkdir(parents=True, exist_ok=True)
     with ThreadPoolExecutor(max(1, a.jobs)) as ex:
-        results = list(ex.map(lambda n: analyse(n, a.out, a.reuse, a.data), names))
-    # the issue's logs: underway with GNSS, and the berth ones
-    chosen = [r for r in results if r.get("berth") or (r.get("underway") and r.get("has_gnss"))]
+        results = list(ex.map(lambda n: analyse(n, logs[n], a.out, a.reuse, a.data), names))
+    # every log with GNSS fixes (its state says underway, still or berth), the berth ones in any case
+    chosen = [r for r in results if r.get("berth") or r.get("has_gnss")]
     others = [r["log"] for r in results if r not in chosen]
     text = "## real logs (default configuration)\n\n" + report(chosen)
     if others:
-        text += f"\n\nreplayed but neither underway with GNSS nor at the berth: {', '.join(others)}"
+        text += f"\n\nreplayed, without GNSS fixes: {', '.join(others)}"
     (a.out / "real_logs.md").write_text(text + "\n")
     print(text)
     print(f"\nfiles in {a.out}/ (real_logs.md)")
