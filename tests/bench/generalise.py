@@ -72,7 +72,10 @@ def run(job: Job, out: Path, warmup: float, reuse: bool) -> dict[str, Any]:
     d = out / f"{job.label}-s{job.seed}"
     res_file = d / "result.json"
     if reuse and res_file.exists():
-        return json.loads(res_file.read_text())
+        res = json.loads(res_file.read_text())
+        if job.label.startswith("fault") and (d / "run.mcap").exists():  # judged afresh: the judging may have changed
+            res["fault"] = judge_fault(d, read(d / "run.mcap", ["/health"] + [f"/est/{e}" for e in ESTIMATES]), warmup)
+        return res
     d.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     args = ["sim", job.scenario, "--out", str(d), "--seed", str(job.seed)]
@@ -308,7 +311,26 @@ def judge_fault(d: Path, recorded, warmup: float) -> dict[str, Any]:
                 "coverage_out": float(np.mean(within[outside])) if outside.any() else None,
             }
         out[e] = {"fields": fields, "problems": problems_seen([x for x in h if a <= x[0] <= b + 600.0])}
+        if e == "stw":
+            out[e]["dvl_bias"] = _dvl_bias(payloads, meta, b)
     return out
+
+
+def _dvl_bias(payloads: list[dict[str, Any]], meta: dict[str, Any], end: float) -> str:
+    """The log offset the estimate states (± σ) at the window's end and at the run's
+    end, beside the simulated one (truth.csv has no column for it)."""
+    sim = next((s["bias"].get("stw_long") for s in meta["sensors"] if s["model"] == "water_speed"), None)
+
+    def at(t: float) -> str:
+        p = next((p for p in reversed(payloads) if p["t"] <= t and not p.get("stale")), None)
+        if p is None or not isinstance(p.get("dvl_bias"), (int, float)):
+            return "null"
+        sd = (p.get("dvl_std") or {}).get("bias")
+        return f"{p['dvl_bias']:+.2f}" + (f" ± {sd:.2f}" if isinstance(sd, (int, float)) else "")
+
+    if sim is None:
+        return "-"
+    return f"dvl_bias {at(end)} at the window's end, {at(payloads[-1]['t'])} at the end (simulated {sim:+.2f} m/s)"
 
 
 def fault_report(results: list[dict[str, Any]]) -> str:
@@ -330,7 +352,8 @@ def fault_report(results: list[dict[str, Any]]) -> str:
                              f"{num(mx)} (σ {num(sg)}) {u}".strip(),
                              "never" if x["recovery_s"] is None else f"{x['recovery_s']:.0f}",
                              f"{100 * x['coverage_out']:.1f}" if x["coverage_out"] is not None else "-",
-                             fe["problems"] if fld == sorted(fe["fields"], key=_order)[0] else ""])
+                             (fe["problems"] + (f"; {fe['dvl_bias']}" if fe.get("dvl_bias") else ""))
+                             if fld == sorted(fe["fields"], key=_order)[0] else ""])
     return table(["fault run", "seed", "replay rc", "field", "honest in window %", "ok:false in window %",
                   "max |err| in window", "recovery s", "±3σ outside %", "problems named (window + 10 min)"], rows)
 
