@@ -20,6 +20,8 @@ configuration (`--date` where the log needs one). From the recording:
 - SOG: the largest estimated SOG (manoeuvre and stw) and the largest GNSS SOG, in kn;
 - heading: the estimate minus each heading source (the estimate published last before
   each reading), median and RMS in degrees;
+- stw: the estimate minus the log it reads (`dvl_stw`) and minus its own `sog`, its
+  `stw_std` (median, largest, the first estimate's) and the log offset it found;
 - health: the share of snapshots with the estimator `ok: false`, and the problems named.
 Stale estimates are left out; `converging` ones are counted.
 """
@@ -150,14 +152,16 @@ def catalogue(data: Path, listed_only: bool) -> dict[str, Log]:
 
 def analyse(name: str, log: Log, out: Path, reuse: bool, data: Path = DATA) -> dict[str, Any]:
     d = out / name
-    res_file = d / "result.json"
-    if reuse and res_file.exists():
-        return json.loads(res_file.read_text())
+    res_file, said = d / "result.json", d / "replay.json"
     d.mkdir(parents=True, exist_ok=True)
     rec_path = d / "run.mcap"
-    extra = ["--date", log.date] if log.date else []
-    done = replay([data / log.path, *extra], rec_path, timeout=900)
-    res: dict[str, Any] = {"log": name, "path": log.path, "replay_rc": done.rc, "replay_said": done.stderr_tail if done.rc else ""}
+    if reuse and said.exists():  # the replay is kept, the figures made afresh from its recording
+        res: dict[str, Any] = json.loads(said.read_text())
+    else:
+        extra = ["--date", log.date] if log.date else []
+        done = replay([data / log.path, *extra], rec_path, timeout=900)
+        res = {"log": name, "path": log.path, "replay_rc": done.rc, "replay_said": done.stderr_tail if done.rc else ""}
+        said.write_text(json.dumps(res))
     if not rec_path.exists():
         res_file.write_text(json.dumps(res))
         return res
@@ -216,6 +220,7 @@ def analyse(name: str, log: Log, out: Path, reuse: bool, data: Path = DATA) -> d
         if diff.size:
             res["heading"][s] = {"n": int(diff.size), "median": float(np.median(diff)),
                                  "rms": float(np.sqrt(np.mean(diff ** 2))), "src_median": float(np.median(h[ok]) * DEG)}
+    res["stw"] = _stw_figures(stw)
     res["health"] = {}
     for e in ("manoeuvre", "stw"):
         hrows = health_of(rec.get("/health"), e)
@@ -223,6 +228,28 @@ def analyse(name: str, log: Log, out: Path, reuse: bool, data: Path = DATA) -> d
                             "problems": problems_seen(hrows)}
     res_file.write_text(json.dumps(res))
     return res
+
+
+def _stw_figures(stw: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The STW estimate against the log it reads (`dvl_stw`) and against SOG, its σ,
+    and the log offset it found (median over the estimates after the first minute)."""
+    if not stw:
+        return None
+    t0 = stw[0]["t"] + 60.0
+    rows = [p for p in stw if p["t"] >= t0] or stw
+
+    def med(key: str, f=lambda p, k: p.get(k)) -> float | None:
+        xs = [f(p, key) for p in rows]
+        xs = [x for x in xs if isinstance(x, (int, float)) and math.isfinite(x)]
+        return float(np.median(xs)) if xs else None
+
+    def diff(p: dict[str, Any], k: str) -> float | None:
+        a, b = p.get("stw"), p.get(k)
+        return a - b if isinstance(a, (int, float)) and isinstance(b, (int, float)) else None
+
+    sd = [p.get("stw_std") for p in rows if isinstance(p.get("stw_std"), (int, float))]
+    return {"minus_log": med("dvl_stw", diff), "minus_sog": med("sog", diff), "std_median": med("stw_std"),
+            "std_max": max(sd) if sd else None, "dvl_bias": med("dvl_bias"), "first_std": stw[0].get("stw_std")}
 
 
 def report(results: list[dict[str, Any]]) -> str:
@@ -251,6 +278,11 @@ def report(results: list[dict[str, Any]]) -> str:
                                 for s, x in hd.items()]))
         sm = r.get("sog_max_kn") or {}
         hh = r.get("health") or {}
+        st = r.get("stw") or {}
+        if st:
+            lines.append(f"\nstw (medians after the first minute): stw − log {num(st.get('minus_log'))} m/s, stw − sog "
+                         f"{num(st.get('minus_sog'))} m/s, stw_std {num(st.get('std_median'))} (max "
+                         f"{num(st.get('std_max'))}, first {num(st.get('first_std'))}), dvl_bias {num(st.get('dvl_bias'))}")
         lines.append(f"\nmax SOG kn: manoeuvre {num(sm.get('manoeuvre'))}, stw {num(sm.get('stw'))}, "
                      f"GNSS {num(sm.get('gnss'))}")
         for e, x in hh.items():
@@ -262,13 +294,17 @@ def report(results: list[dict[str, Any]]) -> str:
         worst_h = max((abs(x["median"]) for x in hd.values()), default=None)
         best_h = min((abs(x["median"]) for x in hd.values()), default=None)
         hm = hh.get("manoeuvre", {})
+        st = r.get("stw") or {}
+        stw_cell = (f"{num(st.get('minus_log'), 2)} / {num(st.get('minus_sog'), 2)} / "
+                    f"{num(st.get('std_median'), 2)} (first {num(st.get('first_std'), 2)})") if st else "-"
         summary.append([name, "berth" if r.get("berth") else ("underway" if r.get("underway") else "still"),
-                        num(r.get("median_gnss_sog_kn")),
+                        num(r.get("median_gnss_sog_kn")), stw_cell,
                         r["replay_rc"], " / ".join(ratios), " / ".join(cover), num(sm.get("manoeuvre")),
                         num(sm.get("gnss")), f"{num(best_h)} / {num(worst_h)}" if hd else "-",
                         f"{hm.get('not_ok', 0)}/{hm.get('snapshots', 0)}", hm.get("problems", "-")])
     parts.insert(0, "### summary\n\n" + table(
-        ["log", "state", "median GNSS SOG kn", "replay rc", "pred/DR 10/30/60 s", "in 2σ % 10/30/60", "max SOG est kn", "max SOG GNSS kn",
+        ["log", "state", "median GNSS SOG kn", "stw − log / stw − sog / stw_std median m/s", "replay rc",
+         "pred/DR 10/30/60 s", "in 2σ % 10/30/60", "max SOG est kn", "max SOG GNSS kn",
          "|heading − source| median ° (closest / farthest source)", "manoeuvre ok:false", "manoeuvre problems"], summary))
     return "\n\n".join(parts)
 
@@ -279,7 +315,7 @@ def main() -> None:
                     "(default: every log present)")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("real-logs-out"))
-    ap.add_argument("--reuse", action="store_true", help="keep logs whose result.json exists")
+    ap.add_argument("--reuse", action="store_true", help="keep the replays already made (figures made afresh)")
     ap.add_argument("--data", type=Path, default=DATA, help=f"the logs' folder (default {DATA})")
     ap.add_argument("--listed", action="store_true", help="only manoeuvre_real.LOGS, not every file of --data")
     a = ap.parse_args()
@@ -294,6 +330,8 @@ def main() -> None:
     with ThreadPoolExecutor(max(1, a.jobs)) as ex:
         results = list(ex.map(lambda n: analyse(n, logs[n], a.out, a.reuse, a.data), names))
     # every log with GNSS fixes (its state says underway, still or berth), the berth ones in any case
+    for r in results:
+        r.setdefault("path", logs[r["log"]].path)
     chosen = [r for r in results if r.get("berth") or r.get("has_gnss")]
     others = [r["log"] for r in results if r not in chosen]
     text = "## real logs (default configuration)\n\n" + report(chosen)
