@@ -120,6 +120,9 @@ GROUPS = {
     "translation": (("accel", "position"), (2, 3, 6, 7)),
 }
 DRIVER_SPAN = 5.0
+#: Two fixes at least START_SPAN / 2 and at most this far apart (s) start a filter
+#: whose GNSS is slow (nearer, their difference is too noisy a velocity).
+SLOW_START_SPAN = 60.0
 #: A GNSS jump this soon (s) after the start means the start was wrong: start again.
 RESTART_SPAN = 20.0
 #: The predictions each horizon chooses among (`blend.py`): the model with its yaw
@@ -238,6 +241,7 @@ class ManoeuvreCore:
                                       or self._vg is None or t - self._vg[0] > VG_MAX_AGE):
                 self._vg_source = rec.source  # one receiver's, the first heard (or the one speaking)
                 self._vg = (t, float(sog) * math.cos(cog), float(sog) * math.sin(cog))
+                self._start_if_slow(t)  # a slow receiver's SOG/COG, just after its fix
         elif kind == "current":
             set_, drift = v.get("set"), v.get("drift")
             if _finite(set_, drift):
@@ -323,6 +327,7 @@ class ManoeuvreCore:
             # slower than that (1 Hz: three seconds), within START_SPAN
             recent = [f for f in fixes if f[0] >= t - START_SPAN]
             if len(recent) < 3:
+                self._start_slow(t, hd[1])  # a receiver slower than 3 fixes in START_SPAN
                 return
             since = min(t - window, recent[-3][0])
             pts = [f for f in recent if f[0] >= since]
@@ -349,9 +354,15 @@ class ManoeuvreCore:
                 vn, ve = vg[1], vg[2]
                 var_v = START_VG_SIGMA**2
                 cov_pv = 0.0
+        self._start(t, pos, vn, ve, hd[1], var_p, var_v, cov_pv)
+
+    def _start(self, t: float, pos: tuple[float, float], vn: float, ve: float, psi: float, var_p: float,
+               var_v: float, cov_pv: float) -> None:
+        """The filter from a position, a velocity over ground and the heading, with P0
+        of eqs. (20)–(22): the starting values' errors spread into the state."""
+        cfg = self.cfg
         r = self._rate[1] if self._rate is not None and t - self._rate[0] <= START_AGE else 0.0
         var_r = (float(cfg.yaw_rate_sigma_deg) * DEG) ** 2 if self._rate is not None else START_RATE_SIGMA**2
-        psi = hd[1]
         m = self.model
         x0 = m.from_motion(pos[0], pos[1], vn, ve, psi, r)
         # P0: eqs. (20)-(22), the errors of the starting values spread into the state
@@ -374,6 +385,46 @@ class ManoeuvreCore:
         self._t_started = t
         self._since_start.clear()
         self._fixes.clear()
+
+    def _slow(self, t: float) -> bool:
+        """The receiver is slow: its last two fixes START_SPAN / 2 or more apart, or its
+        only one that old (a 10 Hz receiver's first fixes are not a slow receiver's)."""
+        fixes = self._fixes
+        if len(fixes) >= 2:
+            return fixes[-1][0] - fixes[-2][0] >= 0.5 * START_SPAN
+        return bool(fixes) and t - fixes[-1][0] >= 0.5 * START_SPAN
+
+    def _start_if_slow(self, t: float) -> None:
+        """A start is tried at every fix; with a slow receiver also when its SOG/COG or
+        a heading comes after its fix, so that it need not wait for the next fix."""
+        fixes = self._fixes
+        if self.filter is None and fixes and t - fixes[-1][0] <= SLOW_START_SPAN and self._slow(t):
+            self._try_start(t)
+
+    def _start_slow(self, t: float, psi: float) -> None:
+        """A GNSS with a fix every 10–60 s (a ship's receiver thinned to the STW paper's
+        30 s) never gives three fixes in START_SPAN: start from the last fix with the
+        receiver's own SOG/COG, else from the last two fixes (over 30 s their
+        difference is a velocity within 0.07 m/s), the fix carried to now."""
+        fixes, cfg = self._fixes, self.cfg
+        if not fixes or not self._slow(t) or t - fixes[-1][0] > SLOW_START_SPAN:
+            return
+        t1, n1, e1 = fixes[-1]
+        var_p = float(cfg.position_sigma) ** 2
+        vg = self._vg
+        if vg is not None and abs(vg[0] - t1) <= START_AGE + 0.5:  # the receiver's velocity at its fix
+            vn, ve, var_v, cov_pv = vg[1], vg[2], START_VG_SIGMA**2, 0.0
+        elif len(fixes) >= 2 and 0.5 * START_SPAN <= t1 - fixes[-2][0] <= SLOW_START_SPAN:
+            t0, n0, e0 = fixes[-2]
+            dt = t1 - t0
+            vn, ve = (n1 - n0) / dt, (e1 - e0) / dt
+            var_v, cov_pv = 2.0 * var_p / dt**2, var_p / dt
+        else:
+            return
+        ahead = t - t1  # the fix carried to now (a heading or SOG/COG after it)
+        pos = (n1 + vn * ahead, e1 + ve * ahead)
+        var_p, cov_pv = var_p + 2.0 * ahead * cov_pv + ahead * ahead * var_v, cov_pv + ahead * var_v
+        self._start(t, pos, vn, ve, psi, var_p, var_v, cov_pv)
 
     def _make_filter(self, x0: np.ndarray, P0: np.ndarray) -> Any:
         cfg = self.cfg
@@ -426,6 +477,7 @@ class ManoeuvreCore:
             return False
         if kind == "heading":  # what a start takes (`_try_start`)
             self._heading = (t, float(z[0]))
+            self._start_if_slow(t)
         elif kind == "yaw_rate":
             self._rate = (t, float(z[0]))
         return True

@@ -432,3 +432,34 @@ def test_a_gap_shorter_than_reset_after_is_integrated_across():
 
 def wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+@pytest.mark.parametrize("with_sog", [True, False])
+def test_a_gnss_with_a_fix_every_30_s_starts_the_filter(with_sog):
+    """A ship's receiver thinned to a fix every 30 s never gives three fixes in 10 s:
+    the filter starts from the last fix and the receiver's SOG/COG, or from two fixes."""
+    voyage = _voyage(duration=240.0, gnss_hz=10.0)
+    ms = []
+    for m in voyage.measurements():
+        if m.kind == "position":
+            if round(m.t - T0, 3) % 30.0:
+                continue
+            if with_sog:
+                tr = truth_at(voyage.truth, m.t)
+                vn = tr[3] * math.cos(tr[5]) - tr[4] * math.sin(tr[5])
+                ve = tr[3] * math.sin(tr[5]) + tr[4] * math.cos(tr[5])
+                ms.append(m)
+                ms.append(Measurement("velocity_ground", "gnss", m.t + 0.01,
+                                      {"sog": math.hypot(vn, ve), "cog": math.atan2(ve, vn) % (2 * math.pi)}))
+                continue
+        ms.append(m)
+    ms.sort(key=lambda m: m.t)
+    core = _core()
+    out = run(core, ms)
+    assert out, "the filter never started"
+    assert out[0].t - T0 <= (6.0 if with_sog else 31.0)  # with SOG/COG: once no second fix came in 5 s
+    for e in out[-300::30]:  # the last 30 s: within 3σ and a tenth of a m/s
+        tr = truth_at(voyage.truth, e.t)
+        for i, f in ((3, "u"), (4, "v")):
+            err = abs(e.values[f] - tr[i])
+            assert err <= min(0.1, 3.0 * e.values["std"][f]), (f, err, e.values["std"][f])
