@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -94,15 +95,24 @@ def health_of(snapshots: list[dict[str, Any]], estimator: str) -> list[tuple[flo
     return rows
 
 
-def problems_seen(rows: list[tuple[float, bool, list[str]]], limit: int = 3, width: int = 70) -> str:
-    """The distinct problems named, most frequent first, shortened for a table."""
+def problems_seen(rows: list[tuple[float, bool, list[str]]], limit: int = 3, width: int = 110) -> str:
+    """The distinct problems named, most frequent first, shortened for a table. Texts
+    that differ only in their numbers (a NIS that moves, a time) count as one, shown
+    by their latest wording."""
     counts: dict[str, int] = {}
+    latest: dict[str, str] = {}
     for _, _, ps in rows:
         for p in ps:
-            counts[p] = counts.get(p, 0) + 1
-    texts = [p if len(p) <= width else p[:width - 1] + "…" for p, _ in sorted(counts.items(), key=lambda kv: -kv[1])]
+            key = _NUMBER.sub("#", p)
+            counts[key] = counts.get(key, 0) + 1
+            latest[key] = p
+    texts = [latest[k] for k, _ in sorted(counts.items(), key=lambda kv: -kv[1])]
+    texts = [p if len(p) <= width else p[:width - 1] + "…" for p in texts]
     more = f" (+{len(texts) - limit})" if len(texts) > limit else ""
     return "; ".join(texts[:limit]) + more if texts else "-"
+
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
 
 
 def table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
