@@ -105,6 +105,8 @@ class StwCore:
             for nis in self.model.advance(t):
                 self.monitor.update("gnss", nis, 2)
         handler = getattr(self, "_on_" + kind, None)
+        if isinstance(self.model, VectorModel) and self.model.ground is not None:
+            self.model.ground.r = self._rate(t)
         if handler is not None:
             self.seen[kind] += 1
             was_ready = self.model.ready
@@ -421,6 +423,17 @@ class StwCore:
         if not self.heading.fresh(t, HEADING_MAX_AGE):
             return None
         return self.heading.smoothed()
+
+    def _rate(self, t: float) -> float:
+        """The rate of turn the ground velocity turns by: the gyro's, else the smoothed
+        heading's, else 0 (rad/s)."""
+        rot = self._rot
+        if rot is not None and t - rot[0] <= YAW_RATE_MAX_AGE:
+            return rot[1]
+        rate = self.heading.rate
+        if rate is not None and t - rate[0] <= 2.0 * 5.0 and self.heading.fresh(t, 2.0):
+            return rate[1]
+        return 0.0
 
     def _turning(self, t: float) -> bool:
         """Turning now, or less than `turn_settle` s ago: the hull still sways."""

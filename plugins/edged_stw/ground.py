@@ -8,7 +8,8 @@ Measurements:
     GNSS position   z = [p_n, p_e]                       R = σ_p²·I
     GNSS velocity   z = SOG·[cos COG, sin COG] = [v_n, v_e]   R = σ_v²·I (noise on the vector,
                     so that COG at low speed is not overweighted)
-    accelerometer   z = R(ψ)·[a_x, a_y] = [a_n, a_e]     R = σ_a²/n + (0.01 m/s²)²
+    accelerometer   z = R(ψ)·[a_x, a_y] = [a_n, a_e] + r·[−v_e, v_n]   R = σ_a²/n + (0.01 m/s²)²
+    (with a rate of turn r the velocity turns with the hull: `transition`)
 
 Seed 000 feeds the acceleration in as a control input; integrating a noisy 1 Hz
 accelerometer that way adds a velocity random walk (≈ 0.27 m/s over 30 s at σ 0.05
@@ -40,13 +41,30 @@ _H_ACC = np.eye(6)[ACC]
 Q_MIN, Q_MAX = 1e-9, 1e-2
 #: Step of log q per GNSS velocity update (covariance matching, below).
 Q_GAIN = 0.1
+#: An innovation counts at most this many times its dof: one manoeuvre (or one bad
+#: fix) raises q by e^(Q_GAIN·(Q_UP − 1)) ≈ 1.5× per update, not by orders of magnitude
+#: that the slow fixes of a large ship would take an hour to bring down again.
+Q_UP = 5.0
 
 
-def transition(T: float) -> np.ndarray:
-    """F for a step of T seconds, states ordered [p_n, p_e, v_n, v_e, a_n, a_e]."""
+def transition(T: float, r: float = 0.0) -> np.ndarray:
+    """F for a step of T seconds, states ordered [p_n, p_e, v_n, v_e, a_n, a_e].
+
+    With a rate of turn r (rad/s, + clockwise) the velocity turns with the hull (a
+    coordinated turn, r from the gyro: linear given r), θ = r·T:
+        v(k+1) = Rot(θ)·v + T·a,   p(k+1) = p + (1/r)·[[sin θ, −(1 − cos θ)], [1 − cos θ, sin θ]]·v + ½T²·a
+    so that a turning ship's ground velocity between 30-s fixes swings round instead of
+    being blended (shortened) between its old and new directions; `a` is then the
+    acceleration besides the turn's (speed changes)."""
     F = np.eye(6)
     F[P_N, V_N] = F[P_E, V_E] = F[V_N, A_N] = F[V_E, A_E] = T
     F[P_N, A_N] = F[P_E, A_E] = 0.5 * T * T
+    th = r * T
+    if abs(th) > 1e-9:
+        c, s = math.cos(th), math.sin(th)
+        F[V_N, V_N], F[V_N, V_E], F[V_E, V_N], F[V_E, V_E] = c, -s, s, c
+        F[P_N, V_N] = F[P_E, V_E] = s / r
+        F[P_N, V_E], F[P_E, V_N] = -(1.0 - c) / r, (1.0 - c) / r
     return F
 
 
@@ -64,12 +82,15 @@ class GroundFilter:
         self.x = np.array([0.0, 0.0, v_n, v_e, 0.0, 0.0])
         self.P = np.diag([1e4, 1e4, sog_sigma**2, sog_sigma**2, accel_sigma0**2, accel_sigma0**2])
         self.have_position = False
+        #: Rate of turn (rad/s) the next prediction turns the velocity by (set by the
+        #: vector model from the gyro or the heading; 0 when neither is fresh).
+        self.r = 0.0
 
     def predict(self, t: float) -> None:
         T = t - self.t
         if T <= 0.0:
             return
-        self.x, self.P = kf_predict(self.x, self.P, transition(T), process_noise(T, self.q))
+        self.x, self.P = kf_predict(self.x, self.P, transition(T, self.r), process_noise(T, self.q))
         self.t = t
 
     def predicted(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -77,7 +98,7 @@ class GroundFilter:
         T = t - self.t
         if T <= 0.0:
             return self.x, self.P
-        F = transition(T)
+        F = transition(T, self.r)
         return F @ self.x, F @ self.P @ F.T + process_noise(T, self.q)
 
     # Each `try_*` predicts to the measurement, gates it and updates; it returns the
@@ -104,12 +125,12 @@ class GroundFilter:
         filter's velocity NIS has mean `dof`. Innovations larger than predicted mean the
         motion changes faster than q allows, smaller ones that q lets the velocity
         wander more than it does (between 30-s fixes it then follows the IMU's noise):
-            log q ← log q + Q_GAIN·(min(ν, 25·dof)/dof − 1),   Q_MIN ≤ q ≤ Q_MAX
+            log q ← log q + Q_GAIN·(min(ν/dof, Q_UP) − 1),   Q_MIN ≤ q ≤ Q_MAX
         So one default holds from a tanker with a fix every 30 s to a yacht at 1 Hz;
         where the prediction interval is short and R dominates, q barely matters."""
         if not math.isfinite(nis):
             return
-        step = Q_GAIN * (min(nis, 25.0 * dof) / dof - 1.0)
+        step = Q_GAIN * (min(nis / dof, Q_UP) - 1.0)
         self.q = min(max(self.q * math.exp(step), Q_MIN), Q_MAX)
 
     def try_velocity(self, v_n: float, v_e: float, sigma: float, gate: float) -> tuple[float, bool]:
@@ -123,12 +144,15 @@ class GroundFilter:
         return nis, True
 
     def try_accel(self, a_n: float, a_e: float, var: float, gate: float) -> tuple[float, bool]:
+        """The accelerometers see the turn's acceleration too: z = a + r·[−v_e, v_n]."""
         z = np.array([a_n, a_e])
         R = np.eye(2) * var
-        _, _, nis = innovation(self.x, self.P, z, R, _H_ACC)
+        H = _H_ACC.copy()
+        H[0, V_E], H[1, V_N] = -self.r, self.r
+        _, _, nis = innovation(self.x, self.P, z, R, H)
         if not nis <= gate:  # NaN fails too
             return nis, False
-        self.x, self.P = update(self.x, self.P, z, R, _H_ACC)
+        self.x, self.P = update(self.x, self.P, z, R, H)
         return nis, True
 
     def reset_position(self, n: float, e: float, sigma: float) -> None:

@@ -114,8 +114,10 @@ def test_gnss_jump_gated_counted_and_recovered():
     c = core()
     est = run(c, jumped)
     h = c.health()
-    assert h["rejected"]["position.gate"] == 5
-    assert h["innovation"]["position"]["gated"] == 5
+    # The 5 jumped fixes, and at most one of the 895 others (a 99.99 % gate; the
+    # learned jerk density makes the filter surer of its position: one at 631 s).
+    assert 5 <= h["rejected"]["position.gate"] <= 6
+    assert h["innovation"]["position"]["gated"] == h["rejected"]["position.gate"]
     assert max(abs(e.values["stw"] - 10.0) for e in est if e.t > T0 + 600) < 0.6
     # A jump that persists (a new antenna position) is accepted after gnss_reset_after.
     moved = [Measurement(m.kind, m.source, m.t, {"lat": m.values["lat"] + 0.002, "lon": m.values["lon"]})

@@ -53,6 +53,8 @@ class Voyage:
     wander_period: float = 300.0
     current_rotation_deg_h: float = 0.0
     rot: bool = False
+    gnss_period: int = 1  #: s between GNSS fixes (and SOG/COG): 30 for a large ship's
+    imu_hz: int = 10
 
     def speed_at_t(self, k: float) -> tuple[float, float]:
         """Speed through the water (m/s) and its rate (m/s²) k s into the voyage."""
@@ -119,10 +121,11 @@ class Voyage:
                 pn, pe = pn + v_n, pe + v_e  # 1 s on (the velocity changes slowly)
             else:
                 n, e = v_n * k + rng.normal(0, self.position_sigma), v_e * k + rng.normal(0, self.position_sigma)
-            yield Measurement("position", "gnss", t + 0.1, {"lat": lat0 + n / M_PER_DEG_LAT, "lon": lon0 + e / m_lon})
             gn, ge = v_n + rng.normal(0, self.sog_sigma), v_e + rng.normal(0, self.sog_sigma)
-            yield Measurement("velocity_ground", "gnss", t + 0.2,
-                              {"sog": math.hypot(gn, ge), "cog": math.atan2(ge, gn) % (2 * math.pi)})
+            if k % self.gnss_period == 0:
+                yield Measurement("position", "gnss", t + 0.1, {"lat": lat0 + n / M_PER_DEG_LAT, "lon": lon0 + e / m_lon})
+                yield Measurement("velocity_ground", "gnss", t + 0.2,
+                                  {"sog": math.hypot(gn, ge), "cog": math.atan2(ge, gn) % (2 * math.pi)})
             h0, r0 = self.heading_at_t(k) if self.varied else (math.radians(self.heading_deg), 0.0)
             u0, du0 = self.speed_at_t(k) if self.varied else (self.speed, 0.0)
             if self.gyro:
@@ -132,8 +135,8 @@ class Voyage:
                 if self.rot:
                     yield Measurement("yaw_rate", "gyro", t + 0.32, {"r": r0 + rng.normal(0, 0.0003)})
             if self.imu:
-                for j in range(10):
-                    yield Measurement("accel_body", "imu", t + 0.35 + 0.05 * j,
+                for j in range(self.imu_hz):
+                    yield Measurement("accel_body", "imu", t + 0.35 + 0.5 * j / self.imu_hz,
                                       {"ax": du0 + rng.normal(0, 0.05), "ay": u0 * r0 + rng.normal(0, 0.05), "az": 0.0})
             if self.dvl:
                 yield Measurement("water_speed", "dvl", t + 0.9,
