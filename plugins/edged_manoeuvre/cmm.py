@@ -108,6 +108,8 @@ class Cmm:
             if self.bias:
                 ax, ay = ax + x[..., BX], ay + x[..., BY]
             return np.stack([ax, ay], axis=-1)
+        if kind == "velocity":  # the velocity states themselves
+            return np.stack([x[..., VN], x[..., VE]], axis=-1)
         raise KeyError(kind)
 
     def H(self, kind: str, x: np.ndarray) -> np.ndarray:
@@ -126,6 +128,8 @@ class Cmm:
             Hm[1, PSI] += -an_ * c - ae_ * s
             if self.bias:
                 Hm[0, BX] = Hm[1, BY] = 1.0
+        elif kind == "velocity":
+            Hm[0, VN] = Hm[1, VE] = 1.0
         else:
             raise KeyError(kind)
         return Hm

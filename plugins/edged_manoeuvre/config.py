@@ -34,7 +34,8 @@ DEFAULTS = {
         "substep": 0.05, "position_sigma": 1.5, "heading_sigma_deg": 0.2, "yaw_rate_sigma_deg": 0.05,
         "accel_sigma": 0.03, "q_position": 1e-4, "q_velocity": 1e-6, "q_heading": 1e-8,
         "q_yaw_accel": 1e-7, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
-        "gate": True, "imu_bias": True, "init_window": 3.0, "max_rate": 10.0,
+        "gate": True, "imu_bias": True, "init_window": 3.0, "max_rate": 10.0, "use_sog": True,
+        "velocity_sigma": 0.1,
     },
     "paper": {
         "substep": 0.005, "position_sigma": PAPER_R["position"], "heading_sigma_deg": 0.5,
@@ -42,7 +43,7 @@ DEFAULTS = {
         "q_position": PAPER_Q[0], "q_velocity": PAPER_Q[2], "q_heading": PAPER_Q[4],
         "q_yaw_accel": PAPER_Q[5], "q_jerk": PAPER_Q[6], "q_jerk_v": PAPER_Q[7], "q_bias": 1e-8,
         "adapt_q": False, "adapt_r": False, "gate": False, "imu_bias": False, "init_window": 0.0,
-        "max_rate": 0.0,
+        "max_rate": 0.0, "use_sog": False, "velocity_sigma": 0.1,
     },
 }
 
@@ -79,6 +80,13 @@ class ManoeuvreConfig(EstimatorConfig):
     heading_sigma_deg: float | None = Field(None, gt=0.0, le=30.0, validate_default=True)
     yaw_rate_sigma_deg: float | None = Field(None, gt=0.0, le=30.0, validate_default=True)
     accel_sigma: float | None = Field(None, gt=0.0, le=10.0, validate_default=True)
+    #: The GNSS's own velocity (SOG/COG, its Doppler), m/s per axis.
+    velocity_sigma: float | None = Field(None, gt=0.0, le=10.0, validate_default=True)
+    #: Update with the GNSS's SOG/COG as a velocity over ground (tuned: yes; seed 002
+    #: has positions only). A receiver's Doppler velocity is good to a few cm/s; without
+    #: it, a vessel with no IMU knows her velocity only by differencing fixes, and a
+    #: 1 Hz compass that swings with the waves turns it at every update.
+    use_sog: bool | None = Field(None, validate_default=True)
 
     # Process noise: spectral densities of the white noise on each state's derivative.
     q_position: float | None = Field(None, ge=0.0, le=1e3, validate_default=True)  # m²/s
@@ -119,7 +127,8 @@ class ManoeuvreConfig(EstimatorConfig):
     current_from: str | None = None
 
     @field_validator(
-        "substep", "position_sigma", "heading_sigma_deg", "yaw_rate_sigma_deg", "accel_sigma", "q_position",
+        "substep", "position_sigma", "heading_sigma_deg", "yaw_rate_sigma_deg", "accel_sigma", "velocity_sigma",
+        "use_sog", "q_position",
         "q_velocity", "q_heading", "q_yaw_accel", "q_jerk", "q_bias", "adapt_q", "adapt_r", "gate", "imu_bias",
         "init_window", "max_rate",
     )

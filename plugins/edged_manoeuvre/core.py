@@ -36,6 +36,7 @@ from .adaptive import Gate, NoiseEstimate, QScale
 from .cmm import Cmm
 from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
+from .faults import SensorFaults
 from .ctra import Ctra
 from .model import KINDS, PSI, R, residual, rk4, wrap_2pi, wrap_pi
 from .blend import ForecastBlend
@@ -71,6 +72,7 @@ SIGMA_FLOOR = {
     "heading": np.array([0.005 * DEG]),
     "yaw_rate": np.array([0.0005 * DEG]),
     "accel": np.full(2, 0.001),
+    "velocity": np.full(2, 0.005),
 }
 #: What two good sensors of a kind may differ by (per row), whatever their σ: two
 #: compasses by their deviation and the wave yaw one sees first, two GNSS antennas by
@@ -81,6 +83,7 @@ DISAGREE_FLOOR = {
     "heading": np.array([5.0 * DEG]),
     "yaw_rate": np.array([0.5 * DEG]),
     "accel": np.full(2, 0.5),
+    "velocity": np.full(2, 2.0),
 }
 #: The course over ground decides between two disagreeing compasses when the track
 #: of the last TRACK_SPAN s is at least TRACK_SPEED m/s and one compass is closer to it
@@ -105,6 +108,17 @@ NIS_PROBLEM_UPDATES = 50
 SIDEWAYS_SPEED = 3.0
 SIDEWAYS_ANGLE = 45.0 * DEG
 SIDEWAYS_SPAN = 30.0
+#: A fix this far from the estimate (m, and JUMP_SIGMAS of its σ) is held out for
+#: JUMP_HOLD s before it is taken as the position (`_far`).
+JUMP_FAR = 500.0
+JUMP_SIGMAS = 10.0
+JUMP_HOLD = 120.0
+#: The estimate's velocity this far from the GNSS's SOG/COG (m/s, and σ) SOG_OFF_RUN
+#: times in a row is a diverged filter; SOG_SIGMA is the receiver's own (m/s).
+SOG_OFF = 2.0
+SOG_OFF_SIGMAS = 6.0
+SOG_OFF_RUN = 5
+SOG_SIGMA = 0.2
 #: The NIS adaptation's groups: which states' process noise each scales, and the
 #: sensors whose NIS drives it, in order of preference: the first that has updated in
 #: the last `DRIVER_SPAN` s drives it alone. Each group listens to the sensor that sees
@@ -117,7 +131,7 @@ SIDEWAYS_SPAN = 30.0
 #: GNSS's is then learned against a process noise the accelerometers have fixed.
 GROUPS = {
     "yaw": (("yaw_rate", "heading"), (5,)),
-    "translation": (("accel", "position"), (2, 3, 6, 7)),
+    "translation": (("accel", "velocity", "position"), (2, 3, 6, 7)),
 }
 DRIVER_SPAN = 5.0
 #: Two fixes at least START_SPAN / 2 and at most this far apart (s) start a filter
@@ -162,6 +176,7 @@ class ManoeuvreCore:
             "heading": np.array([float(cfg.heading_sigma_deg) * DEG]),
             "yaw_rate": np.array([float(cfg.yaw_rate_sigma_deg) * DEG]),
             "accel": np.full(2, float(cfg.accel_sigma)),
+            "velocity": np.full(2, float(cfg.velocity_sigma)),
         }
         self.inputs = frozenset({"position", "heading", "yaw_rate", "accel_body", "current", "velocity_ground"}
                                 | ({f"est/{cfg.current_from}"} if cfg.current_from else set()))
@@ -185,7 +200,10 @@ class ManoeuvreCore:
         self._vg: tuple[float, float, float] | None = None  # t, v_n, v_e of the GNSS's own SOG/COG
         self._vg_source: str | None = None
         self.decimator = Decimator(float(cfg.max_rate))
-        self.copies = SourceCopies(DISAGREE_FLOOR, self._choose, one_at_a_time=frozenset({"position"}))
+        self.faults = SensorFaults()
+        self._far_since: dict[str, float] = {}  # position source -> first fix far off the track
+        self._sog_off = 0  # SOG/COG measurements in a row far from the estimate
+        self.copies = SourceCopies(DISAGREE_FLOOR, self._choose, one_at_a_time=frozenset({"position", "velocity"}))
         self._track: deque[tuple[float, float, float]] = deque()  # (t, p_n, p_e) of the fixes taken
         self.muted: Counter[str] = Counter()
         self.seen: Counter[str] = Counter()
@@ -204,6 +222,8 @@ class ManoeuvreCore:
         self._t_started = -math.inf
         self._t_input: float | None = None  # the newest input's data time
         self._sideways: tuple[float, float, float] | None = None  # since, drift angle, sog
+        self._far_what = ""
+        self._far_t = -math.inf
         self._since_start: Counter[str] = Counter()  # updates applied since the start
         self._prediction: tuple[float, list[dict[str, float]]] | None = None
         #: When a list (the Monte-Carlo harness sets one): (t, kind, NIS, dof, applied,
@@ -241,6 +261,9 @@ class ManoeuvreCore:
                                       or self._vg is None or t - self._vg[0] > VG_MAX_AGE):
                 self._vg_source = rec.source  # one receiver's, the first heard (or the one speaking)
                 self._vg = (t, float(sog) * math.cos(cog), float(sog) * math.sin(cog))
+                self._sog_check(t, self._vg[1], self._vg[2])
+                if self.cfg.use_sog:
+                    self._measure("velocity", t, np.array([self._vg[1], self._vg[2]]), rec.source)
                 self._start_if_slow(t)  # a slow receiver's SOG/COG, just after its fix
         elif kind == "current":
             set_, drift = v.get("set"), v.get("drift")
@@ -470,6 +493,12 @@ class ManoeuvreCore:
         when it is muted (a copy, the source not kept of two that disagree, a GNSS
         receiver standing by). Only what is heard starts the filter."""
         k = KINDS[kind]
+        fault = self.faults.judge(kind, source, t, z, float(self._sigma(kind, source)[0]))
+        if fault is not None:
+            self.rejected[f"{kind}.{fault}"] += 1
+            if self.faults.new_doubt and self.filter is not None:
+                self.filter.P[PSI, PSI] += self.faults.new_doubt
+            return False
         muted = self.copies.muted(kind, source, t, z, lambda a, b: residual(k, a, b), lambda s: self._sigma(kind, s))
         self._disagreed()
         if muted:
@@ -522,6 +551,8 @@ class ManoeuvreCore:
             self.t = t
         dof = KINDS[kind].dim
         R_ = noise.R()
+        if kind == "position" and self._far(t, z, source):
+            return
         if kind == "position" and cfg.ellipse_window > 0.0 and self.plane is not None:
             # the predictions due by now against this fix, an independent witness (the
             # filter's own later estimate shares its errors: measured, it shrank the
@@ -580,6 +611,49 @@ class ManoeuvreCore:
             self._r_lf += (1.0 - math.exp(-dt / R_LF_TAU)) * (r - self._r_lf)
             self._r_lf_t = t
 
+    def _far(self, t: float, z: np.ndarray, source: str) -> bool:
+        """A fix farther from the estimate than the vessel could have gone (JUMP_FAR m
+        and JUMP_SIGMAS σ) is kept out for JUMP_HOLD s: a receiver's glitch of 10 km
+        for a minute must not move a ship the GNSS's own SOG and the other sensors say
+        held her course. The filter coasts meanwhile, its position σ growing, and
+        health names the fixes. Still there after JUMP_HOLD, they are the position."""
+        f = self.filter
+        d = float(np.hypot(z[0] - f.x[0], z[1] - f.x[1]))
+        sigma = math.sqrt(max(float(f.P[0, 0] + f.P[1, 1]), 0.0))
+        if d <= max(JUMP_FAR, JUMP_SIGMAS * sigma):
+            self._far_since.pop(source, None)
+            return False
+        since = self._far_since.setdefault(source, t)
+        if t - since < JUMP_HOLD:
+            self.rejected["position.far"] += 1
+            self._far_what = f"position/{source}: fixes {d / 1000.0:.1f} km from the track for {t - since:.0f} s, kept out"
+            self._far_t = t
+            return True
+        del self._far_since[source]
+        self.filter.reset_position(z, self.noise[("position", source)].R())
+        self.resets["position_jump"] += 1
+        return True
+
+    def _sog_check(self, t: float, vn: float, ve: float) -> None:
+        """The GNSS's own SOG/COG against the estimate's velocity over ground: SOG_OFF_RUN
+        in a row beyond SOG_OFF_SIGMAS σ and SOG_OFF m/s is a filter that has lost
+        itself (saturated accelerometers once took it to 457 m/s): it starts again."""
+        f = self.filter
+        if f is None or self.t is None or abs(t - self.t) > 1.0:
+            return
+        en, ee = self.model.ground_velocity(f.x)
+        J = self.model.body_jacobian(f.x)
+        body_var = np.diag(J @ f.P @ J.T)
+        sigma = math.sqrt(max(float(body_var[0] + body_var[1]), 0.0) + SOG_SIGMA**2)
+        off = math.hypot(en - vn, ee - ve)
+        if off > max(SOG_OFF, SOG_OFF_SIGMAS * sigma):
+            self._sog_off += 1
+            if self._sog_off >= SOG_OFF_RUN:
+                self._sog_off = 0
+                self._diverged(f"velocity {off:.1f} m/s from the GNSS's SOG/COG")
+        else:
+            self._sog_off = 0
+
     def _groups_of(self, kind: str) -> list[QScale]:
         return [self.qscales[g] for g, (kinds, _) in GROUPS.items() if kind in kinds]
 
@@ -631,6 +705,8 @@ class ManoeuvreCore:
             b.forget_pending()
         self._r_lf = self._r_lf_t = None
         self._sideways = None
+        self._far_since.clear()
+        self._sog_off = 0
 
     def _choose(self, kind: str, first: str, second: str, z1: np.ndarray, z2: np.ndarray) -> tuple[str, str]:
         """Which of two disagreeing sources to keep: for compasses, the one nearer the
@@ -680,7 +756,9 @@ class ManoeuvreCore:
 
     def problems(self) -> list[str]:
         """What is wrong now, each naming its measurement and source (health)."""
-        out = []
+        out = self.faults.problems(self._t_input)
+        if self._far_since and self._far_what:
+            out.append(self._far_what)
         side = self._sideways
         if side is not None and self._t_input is not None and self._t_input - side[0] >= SIDEWAYS_SPAN:
             out.append(f"heading: the hull moves sideways (drift angle {side[1] / DEG:.0f}° at {side[2]:.1f} m/s "
@@ -867,6 +945,8 @@ def _say(kind: str, d: np.ndarray) -> str:
         return f"{abs(float(d[0])) / DEG:.2f}°/s"
     if kind == "position":
         return f"{float(np.hypot(d[0], d[1])):.0f} m"
+    if kind == "velocity":
+        return f"{float(np.hypot(d[0], d[1])):.2f} m/s"
     return f"{float(np.max(np.abs(d))):.3g} m/s²"
 
 

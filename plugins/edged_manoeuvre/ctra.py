@@ -82,6 +82,9 @@ class Ctra:
             if self.bias:
                 ax, ay = ax + x[..., BX], ay + x[..., BY]
             return np.stack([ax, ay], axis=-1)
+        if kind == "velocity":  # the body velocities turned to north, east (eq. 8)
+            u, v, c, s = x[..., U], x[..., V], np.cos(x[..., PSI]), np.sin(x[..., PSI])
+            return np.stack([u * c - v * s, u * s + v * c], axis=-1)
         raise KeyError(kind)
 
     def H(self, kind: str, x: np.ndarray) -> np.ndarray:
@@ -96,6 +99,11 @@ class Ctra:
             Hm[1, U], Hm[1, R], Hm[1, AV] = r, u, 1.0
             if self.bias:
                 Hm[0, BX] = Hm[1, BY] = 1.0
+        elif kind == "velocity":
+            u, v, c, s = x[U], x[V], np.cos(x[PSI]), np.sin(x[PSI])
+            Hm = np.zeros((2, n))
+            Hm[0, U], Hm[0, V], Hm[0, PSI] = c, -s, -u * s - v * c
+            Hm[1, U], Hm[1, V], Hm[1, PSI] = s, c, u * c - v * s
         else:
             raise KeyError(kind)
         return Hm

@@ -68,6 +68,8 @@ KINDS = {
     "heading": Kind("heading", 1, (0,)),
     "yaw_rate": Kind("yaw_rate", 1),
     "accel": Kind("accel", 2),
+    #: the GNSS's own velocity over ground (its Doppler SOG/COG as north, east)
+    "velocity": Kind("velocity", 2),
 }
 
 

@@ -463,3 +463,167 @@ def test_a_gnss_with_a_fix_every_30_s_starts_the_filter(with_sog):
         for i, f in ((3, "u"), (4, "v")):
             err = abs(e.values[f] - tr[i])
             assert err <= min(0.1, 3.0 * e.values["std"][f]), (f, err, e.values["std"][f])
+
+
+def _with_fault(voyage: Manoeuvre, kind: str, start: float, end: float, change) -> list[Measurement]:
+    """The voyage's measurements with those of `kind` in [start, end) s changed by
+    `change(m) -> Measurement | None` (None drops it)."""
+    out = []
+    for m in voyage.measurements():
+        if m.kind == kind and start <= m.t - T0 < end:
+            m = change(m)
+            if m is None:
+                continue
+        out.append(m)
+    return out
+
+
+def _within(out: list, voyage: Manoeuvre, fields=((3, "u"), (4, "v"))) -> dict[str, tuple[float, float]]:
+    """Per field over `out`: (the share of estimates within ±3σ of the truth, the
+    largest |error| / σ)."""
+    z: dict[str, list[float]] = {f: [] for _, f in fields}
+    for e in out:
+        tr = truth_at(voyage.truth, e.t)
+        for i, f in fields:
+            err = abs(e.values[f] - tr[i]) if f != "heading" else abs(wrap(e.values[f] - tr[i]))
+            z[f].append(err / e.values["std"][f])
+    return {f: (float(np.mean(np.array(v) <= 3.0)), max(v)) for f, v in z.items()}
+
+
+def _honest(worst: dict[str, tuple[float, float]]) -> bool:
+    """±3σ holds 97 % (the issue's bar outside fault windows) and nothing beyond 5σ."""
+    return all(share >= 0.97 and top < 5.0 for share, top in worst.values())
+
+
+def test_saturated_accelerometers_are_left_out_and_named():
+    """0x320 at 32.767 m/s² (the int16's largest, in its DBC's range) for 10 s: kept out
+    by range, named in problems while it lasts, the estimate within its σ throughout."""
+    voyage = _voyage(duration=120.0, orders=((50.0, 0.5, 0.0, 0.0),))
+    sat = {"ax": 32.767, "ay": 32.767, "az": 32.767}
+    ms = _with_fault(voyage, "accel_body", 60.0, 70.0, lambda m: Measurement(m.kind, m.source, m.t, sat))
+    core = _core()
+    out, said = [], []
+    nxt = None
+    for m in ms:
+        if nxt is None:
+            nxt = math.floor(m.t * 10) / 10 + 0.1
+        while m.t >= nxt - 1e-9:
+            out += core.tick(nxt)
+            nxt = round(nxt + 0.1, 6)
+            if abs(nxt - (T0 + 65.0)) < 1e-6 or abs(nxt - (T0 + 100.0)) < 1e-6:
+                said.append(core.health()["problems"])
+        core.step(m)
+    h = core.health()
+    assert h["rejected"]["accel.range"] == 500 and h["divergences"] == 0
+    assert said[0] and said[0][0].startswith("accel/imu: reading 32.8 m/s²") and said[1] == []
+    worst = _within([e for e in out if e.t - T0 > 10.0], voyage)
+    assert _honest(worst), worst
+
+
+def test_a_frozen_compass_is_left_out_while_the_gyro_turns_and_the_heading_stays_honest():
+    """The compass repeats its last heading for 60 s of a turn at 1°/s: after three
+    repetitions against the gyro it is left out, after 2° of turn named; the heading
+    coasts on the gyro with an honest σ and is the compass's again when it moves."""
+    voyage = _voyage(duration=180.0, r_deg=1.0)
+    frozen: dict[str, float] = {}
+
+    def freeze(m):
+        frozen.setdefault("h", m.values["heading"])
+        return Measurement(m.kind, m.source, m.t, {"heading": frozen["h"]})
+
+    ms = _with_fault(voyage, "heading", 40.0, 100.0, freeze)  # 60 s of a steady turn at 1°/s
+    core = _core()
+    out, said = [], None
+    nxt = None
+    for m in ms:
+        if nxt is None:
+            nxt = math.floor(m.t * 10) / 10 + 0.1
+        while m.t >= nxt - 1e-9:
+            out += core.tick(nxt)
+            nxt = round(nxt + 0.1, 6)
+            if abs(nxt - (T0 + 70.0)) < 1e-6:
+                said = core.health()["problems"]
+        core.step(m)
+    h = core.health()
+    assert h["rejected"]["heading.frozen"] > 500
+    assert said and said[0].startswith("heading/gyro: frozen at ")
+    worst = _within([e for e in out if e.t - T0 > 10.0], voyage, ((5, "heading"), (3, "u"), (4, "v")))
+    assert _honest(worst), worst
+    after = [e for e in out if e.t - T0 > 130.0]  # 30 s after the compass came back
+    assert max(abs(wrap(e.values["heading"] - truth_at(voyage.truth, e.t)[5])) for e in after) < math.radians(0.1)
+
+
+def test_a_position_jumping_10_km_for_60_s_is_held_out_and_named():
+    voyage = _voyage(duration=200.0)
+    plane = LocalPlane(57.6, 11.5)
+
+    def jump(m):
+        n, e = plane.to_ne(m.values["lat"], m.values["lon"])
+        lat, lon = plane.to_geodetic(n + 10_000.0, e)
+        return Measurement(m.kind, m.source, m.t, {**m.values, "lat": lat, "lon": lon})
+
+    ms = _with_fault(voyage, "position", 60.0, 120.0, jump)
+    core = _core()
+    out, said = [], None
+    nxt = None
+    for m in ms:
+        if nxt is None:
+            nxt = math.floor(m.t * 10) / 10 + 0.1
+        while m.t >= nxt - 1e-9:
+            out += core.tick(nxt)
+            nxt = round(nxt + 0.1, 6)
+            if abs(nxt - (T0 + 90.0)) < 1e-6:
+                said = core.health()["problems"]
+        core.step(m)
+    assert said and said[0].startswith("position/gnss: fixes 10.0 km from the track")
+    assert core.health()["events"].get("position_jump") is None
+    for e in out:
+        if e.t - T0 > 10.0:
+            n, ea = plane.to_ne(e.values["lat"], e.values["lon"])
+            tr = truth_at(voyage.truth, e.t)
+            err = math.hypot(n - tr[1], ea - tr[2])
+            assert err < max(3.0 * math.hypot(e.values["std"]["x"], e.values["std"]["y"]), 5.0), (e.t - T0, err)
+
+
+def test_a_filter_far_from_the_gnss_sog_is_restarted():
+    voyage = _voyage(duration=60.0)
+    core = _core()
+    ms = list(voyage.measurements())
+    run(core, [m for m in ms if m.t - T0 < 30.0])
+    core.filter.x[2] += 50.0  # u 50 m/s too fast: a filter that lost itself
+    for k in range(5):
+        t = T0 + 30.0 + 0.2 * k
+        tr = truth_at(voyage.truth, t)
+        vn = tr[3] * math.cos(tr[5]) - tr[4] * math.sin(tr[5])
+        ve = tr[3] * math.sin(tr[5]) + tr[4] * math.cos(tr[5])
+        core.step(Measurement("velocity_ground", "gnss", t, {"sog": math.hypot(vn, ve), "cog": math.atan2(ve, vn) % (2 * math.pi)}))
+    h = core.health()
+    assert h["divergences"] == 1 and h["last_reset"].startswith("velocity 50.")
+
+
+def test_without_an_imu_the_sog_is_no_worse_than_the_gnss_its_doppler_velocity_gives():
+    """A yacht's suite: GNSS at 1 Hz with its SOG/COG, a 1° compass at 1 Hz, no rate
+    gyro, no IMU. The receiver's Doppler velocity is an update of the velocity over
+    ground: the estimate's SOG is no worse than the receiver's (without it, differencing
+    fixes against a swinging compass made it 100 times worse in `edged sim yacht:yacht`)."""
+    voyage = _voyage(duration=300.0, gnss_hz=1.0, heading_hz=1.0, heading_sigma_deg=1.0, position_sigma=2.5,
+                     orders=((100.0, 1.0, 0.0, 0.0), (160.0, 0.0, 0.0, 0.0)))
+    rng = np.random.default_rng(5)
+    ms, raw = [], []
+    for m in voyage.measurements():
+        if m.kind in ("yaw_rate", "accel_body"):
+            continue
+        ms.append(m)
+        if m.kind == "position":
+            tr = truth_at(voyage.truth, m.t)
+            vn = tr[3] * math.cos(tr[5]) - tr[4] * math.sin(tr[5]) + rng.normal(0, 0.065)
+            ve = tr[3] * math.sin(tr[5]) + tr[4] * math.cos(tr[5]) + rng.normal(0, 0.065)
+            sog = math.hypot(vn, ve)
+            ms.append(Measurement("velocity_ground", "gnss", m.t + 0.01, {"sog": sog, "cog": math.atan2(ve, vn) % (2 * math.pi)}))
+            raw.append(sog - math.hypot(tr[3], tr[4]))
+    core = _core()
+    out = [e for e in run(core, ms) if e.t - T0 > 30.0]
+    err = [e.values["sog"] - math.hypot(*truth_at(voyage.truth, e.t)[3:5]) for e in out]
+    assert np.sqrt(np.mean(np.square(err))) <= np.sqrt(np.mean(np.square(raw[30:]))), (
+        np.sqrt(np.mean(np.square(err))), np.sqrt(np.mean(np.square(raw[30:]))))
+    assert core.health()["innovation"]["velocity"]["updates"] > 250

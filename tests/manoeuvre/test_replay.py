@@ -65,7 +65,7 @@ def test_the_recording_holds_the_prediction_and_the_filter_health(scored):
     assert len(last["predicted"]) == 4 and all(p["std_major"] >= p["std_minor"] > 0 for p in last["predicted"])
     info = health["estimators"]["manoeuvre"]["info"]["filter"]  # the core's health()
     assert info["divergences"] == 0 and info["running"]
-    assert set(info["innovation"]) == {"position", "heading", "yaw_rate", "accel"}
+    assert set(info["innovation"]) == {"position", "heading", "yaw_rate", "accel", "velocity"}
 
 
 def test_two_logs_from_different_days_replay_without_integrating_the_gap(tmp_path):
