@@ -22,7 +22,11 @@ worse over the window than the best single candidate (each vertex of the simplex
 one candidate alone): in particular never worse than dead reckoning. The minimum over
 the simplex is found exactly by trying every subset of candidates: on a subset the
 unconstrained minimum is w = G⁻¹1 / 1ᵀG⁻¹1; the best feasible one wins. Until
-`min_samples` errors have come due, dead reckoning alone is published.
+`min_samples` errors have come due, dead reckoning alone is published, and so it is
+when the best combination's squared error over the window is not at least `margin`
+(25 %) below dead reckoning's: the weights are fitted to the window and applied to the
+next minutes, and a small gain in the window is a loss as often as not after it
+(Aava's 30-s prediction: 1.05× dead reckoning with every gain taken, 1.01× with 25 %).
 """
 
 from __future__ import annotations
@@ -39,7 +43,8 @@ class ForecastBlend:
     the weights they give."""
 
     def __init__(self, horizon: float, names: tuple[str, ...], fallback: str, window: float = 600.0,
-                 min_samples: int = 20) -> None:
+                 min_samples: int = 20, margin: float = 0.25) -> None:
+        self.margin = margin
         self.horizon = horizon
         self.names = names
         self.n = len(names)
@@ -104,6 +109,8 @@ class ForecastBlend:
                 j = float(w @ G @ w)
                 if j < best_j - 1e-12:
                     best, best_j = w, j
+        if best_j > (1.0 - self.margin) * float(G[self._fallback, self._fallback]):
+            return np.eye(self.n)[self._fallback]  # not worth what the window cannot promise
         return best
 
     def forget_pending(self) -> None:

@@ -32,7 +32,7 @@ from edged.geo import LocalPlane
 from edged.innovation import InnovationMonitor
 from edged.records import Estimate, Measurement
 
-from .adaptive import Gate, NoiseEstimate, QScale
+from .adaptive import Gate, NoiseEstimate, QScale, Roughness
 from .cmm import Cmm
 from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
@@ -119,6 +119,11 @@ SOG_OFF = 2.0
 SOG_OFF_SIGMAS = 6.0
 SOG_OFF_RUN = 5
 SOG_SIGMA = 0.2
+#: Sensors whose noise is white, so that their readings' own roughness bounds it
+#: (`adaptive.Roughness`): rate gyros. Not a GNSS position (its error wanders over
+#: seconds: bounded so, its R fell below the truth and its NIS rose to 2.4 per dof),
+#: nor a compass (a gyrocompass's error is smooth).
+ROUGH_KINDS = frozenset({"yaw_rate"})
 #: The NIS adaptation's groups: which states' process noise each scales, and the
 #: sensors whose NIS drives it, in order of preference: the first that has updated in
 #: the last `DRIVER_SPAN` s drives it alone. Each group listens to the sensor that sees
@@ -142,9 +147,11 @@ RESTART_SPAN = 20.0
 #: The predictions each horizon chooses among (`blend.py`): the model with its yaw
 #: rate held, the model with the yaw rate low-passed over R_LF_TAU s (the turn that
 #: moves the track, not the wave yaw), a straight line from the estimate at its
-#: velocity over ground, and dead reckoning from the last fix at the GNSS's own
-#: SOG/COG (at the fixes' own speed over the last TRACK_SPAN s when it sends none).
-CANDIDATES = ("model", "model_low_rate", "straight", "dead_reckoning")
+#: velocity over ground, the last fix carried on at the fixes' own velocity over the
+#: last TRACK_SPAN s (smoother than a receiver's SOG, which has spikes), and dead
+#: reckoning from the last fix at the GNSS's own SOG/COG (at the fixes' velocity when
+#: it sends none).
+CANDIDATES = ("model", "model_low_rate", "straight", "track", "dead_reckoning")
 R_LF_TAU = 20.0
 #: SOG/COG older than this (s) no longer carries the dead reckoning.
 VG_MAX_AGE = 5.0
@@ -188,6 +195,7 @@ class ManoeuvreCore:
         self.qscales = {g: QScale(min_base=1.0 if cfg.filter == "enkf" else 1e-3) for g in GROUPS}
         self._last_update: dict[str, float] = {}
         self.noise: dict[tuple[str, str], NoiseEstimate] = {}
+        self.roughness: dict[tuple[str, str], Roughness] = {}
         self.gates: dict[tuple[str, str], Gate] = {}
         self.monitor = InnovationMonitor(window=200)
         self.predictor = Predictor(self.model, tuple(cfg.horizons), cfg.accel_decay)
@@ -257,8 +265,14 @@ class ManoeuvreCore:
                 self._measure("accel", t, np.array([float(ax), float(ay)]), rec.source)
         elif kind == "velocity_ground":
             sog, cog = v.get("sog"), v.get("cog")
-            if _finite(sog, cog) and (self._vg_source is None or self._vg_source == rec.source
-                                      or self._vg is None or t - self._vg[0] > VG_MAX_AGE):
+            vg = self._vg
+            if vg is not None and rec.source == self._vg_source and 0.0 <= t - vg[0] < REPEAT_WINDOW and (
+                    t == vg[0] or (_finite(sog, cog) and (vg[1], vg[2]) == (float(sog) * math.cos(cog),
+                                                                           float(sog) * math.sin(cog)))):
+                # one receiver's velocity told twice (RMC and VTG of one fix): one update
+                self.rejected["velocity_ground.repeat"] += 1
+            elif _finite(sog, cog) and (self._vg_source is None or self._vg_source == rec.source
+                                        or vg is None or t - vg[0] > VG_MAX_AGE):
                 self._vg_source = rec.source  # one receiver's, the first heard (or the one speaking)
                 self._vg = (t, float(sog) * math.cos(cog), float(sog) * math.sin(cog))
                 self._sog_check(t, self._vg[1], self._vg[2])
@@ -517,10 +531,16 @@ class ManoeuvreCore:
         f = self.filter
         if f is None or self.t is None:
             return
+        top = None
+        if kind in ROUGH_KINDS:  # the raw readings' roughness, before they are averaged
+            rough = self.roughness.get((kind, source))
+            if rough is None:
+                rough = self.roughness[(kind, source)] = Roughness()
+            top = rough.add(t, z, lambda a, b: residual(KINDS[kind], a, b))
         block = self.decimator.push(kind, source, t, z, KINDS[kind].angle_rows)
         if block is None:
             return
-        t, z, _samples, scatter = block
+        t, z, samples, scatter = block
         dt = t - self.t
         if dt < -0.5:
             self.rejected[f"{kind}.late"] += 1
@@ -543,6 +563,8 @@ class ManoeuvreCore:
             # collapse it through the sampling error of a hundred members (the sway,
             # which no sensor sees, then drifts); its sensors start conservative.
             noise.prime(scatter)
+            if top is not None:
+                noise.ceiling(top / max(samples, 1))  # a mean of n independent readings
         gate = self.gates.get(key)
         if gate is None:
             gate = self.gates[key] = Gate()
@@ -877,22 +899,24 @@ class ManoeuvreCore:
         else:
             t_fix, n0, e0 = t, float(x[0]), float(x[1])
         vf = self.model.ground_velocity(x)
+        vt = self._track_velocity() or vf
         vg = self._vg
         if vg is not None and t - vg[0] <= VG_MAX_AGE:
             vn, ve = vg[1], vg[2]
         else:
-            vn, ve = self._track_velocity() or vf
+            vn, ve = vt
         psi0 = float(x[PSI])
         for b, row, (_, x_m, _), (_, x_l, _) in zip(self.blends, rows, runs, runs_lf):
             ahead = t + b.horizon - t_fix
             lat_l, lon_l = plane.to_geodetic(float(x_l[0]), float(x_l[1]))
             lat_s, lon_s = plane.to_geodetic(float(x[0]) + vf[0] * b.horizon, float(x[1]) + vf[1] * b.horizon)
+            lat_t, lon_t = plane.to_geodetic(n0 + vt[0] * ahead, e0 + vt[1] * ahead)
             lat_d, lon_d = plane.to_geodetic(n0 + vn * ahead, e0 + ve * ahead)
-            cands = np.array([[row["lat"], row["lon"]], [lat_l, lon_l], [lat_s, lon_s], [lat_d, lon_d]])
+            cands = np.array([[row["lat"], row["lon"]], [lat_l, lon_l], [lat_s, lon_s], [lat_t, lon_t], [lat_d, lon_d]])
             b.add(t, cands)
             row["lat"], row["lon"] = b.combine(cands)
             w = b.weights
-            headings = np.array([float(x_m[PSI]), float(x_l[PSI]), psi0, psi0])
+            headings = np.array([float(x_m[PSI]), float(x_l[PSI]), psi0, psi0, psi0])
             row["heading"] = float(wrap_2pi(math.atan2(float(w @ np.sin(headings)), float(w @ np.cos(headings)))))
 
     def health(self) -> dict[str, Any]:
