@@ -59,11 +59,11 @@ def test_subscriber_process_receives_keys_and_payloads(make_ctx, free_port, zpee
                 "t": T0 + 0.2, "t_src": None, "source": "gnss1", "lat": 60.1, "lon": 24.9, "fix_quality": 1
             },
             "vessel/v1/est/stw": {
-                "t": T0 + 0.2, "kind": "stw", "stale": False, "age": 0.0, "stw": 5.1, "stw_std": 0.1, "dvl_stw": None
+                "t": T0 + 0.2, "kind": "stw", "stale": False, "age": 0.0, "converging": False, "stw": 5.1, "stw_std": 0.1, "dvl_stw": None
             },
             # Any estimate name is published as it appears; NaN (no JSON form) as null.
             "vessel/v1/est/some_future_estimator": {
-                "t": T0 + 0.2, "kind": None, "stale": False, "age": 0.0, "a": [1, 2], "b": {"c": None}
+                "t": T0 + 0.2, "kind": None, "stale": False, "age": 0.0, "converging": False, "a": [1, 2], "b": {"c": None}
             },
             "vessel/v1/health": {"t": T0 + 0.3, "outputs": {"zenoh": {"state": "running"}}},
         }
