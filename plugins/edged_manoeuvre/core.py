@@ -38,7 +38,7 @@ from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
 from .faults import SensorFaults
 from .ctra import Ctra
-from .model import KINDS, PSI, R, residual, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, R, residual, rk4, say, wrap_2pi, wrap_pi
 from .blend import ForecastBlend
 from .calibrate import EllipseCalibration
 from .predict import Predictor
@@ -786,7 +786,7 @@ class ManoeuvreCore:
             out.append(f"heading: the hull moves sideways (drift angle {side[1] / DEG:.0f}° at {side[2]:.1f} m/s "
                        f"over ground for {self._t_input - side[0]:.0f} s): the heading or the positions are wrong")
         for d in self.copies.disagreements():
-            out.append(f"{d.kind}: sources {d.first} and {d.second} disagree by {_say(d.kind, d.diff)}; "
+            out.append(f"{d.kind}: sources {d.first} and {d.second} disagree by {say(d.kind, d.diff, size=True)}; "
                        f"{d.kept} kept ({d.why})")
         for kind, m in self.monitor.snapshot().get("innovation", {}).items():
             dof = m.get("dof") or 1
@@ -959,19 +959,6 @@ def _insane(x: np.ndarray, P: np.ndarray) -> str | None:
         if d[i] > top:
             return f"variance {d[i]:.3g} of state {i} beyond {top:g}"
     return None
-
-
-def _say(kind: str, d: np.ndarray) -> str:
-    """A difference between two sources of a kind, in the units a navigator reads."""
-    if kind == "heading":
-        return f"{abs(float(d[0])) / DEG:.1f}°"
-    if kind == "yaw_rate":
-        return f"{abs(float(d[0])) / DEG:.2f}°/s"
-    if kind == "position":
-        return f"{float(np.hypot(d[0], d[1])):.0f} m"
-    if kind == "velocity":
-        return f"{float(np.hypot(d[0], d[1])):.2f} m/s"
-    return f"{float(np.max(np.abs(d))):.3g} m/s²"
 
 
 def _whiten(y: np.ndarray, S: np.ndarray) -> np.ndarray:

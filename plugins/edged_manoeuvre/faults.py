@@ -26,6 +26,8 @@ import math
 
 import numpy as np
 
+from .model import say
+
 DEG = math.pi / 180.0
 ACCEL_MAX = 5.0  # m/s², per horizontal axis
 RATE_MAX = 60.0 * DEG  # rad/s
@@ -91,7 +93,7 @@ class SensorFaults:
             # an accelerometer, after FROZEN_SPAN s of one exact reading
             if (kind == "heading" and abs(s.turn) > FROZEN_TURN) or (kind != "heading" and t - s.since >= FROZEN_SPAN):
                 why = "frozen"
-                s.why = f"frozen at {_say(kind, z)} for {t - s.since:.0f} s"
+                s.why = f"frozen at {say(kind, z)} for {t - s.since:.0f} s"
         if why is None and kind == "heading" and s.count >= SUSPECT_COUNT and abs(s.turn) > max(
                 SUSPECT_SIGMAS * sigma, SUSPECT_TURN):
             # suspect before it is found: left out, not named yet (a few readings of a
@@ -135,13 +137,3 @@ class SensorFaults:
         self._rate = None
         for s in self._streams.values():
             s.turn = 0.0
-
-
-def _say(kind: str, z: np.ndarray) -> str:
-    if kind == "heading":
-        return f"{float(z[0]) / DEG:.1f}°"
-    if kind == "yaw_rate":
-        return f"{float(z[0]) / DEG:.3f}°/s"
-    if kind == "position":
-        return "one position"
-    return f"{', '.join(f'{float(v):.3g}' for v in z)} m/s²"

@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 
 TWO_PI = 2.0 * math.pi
+DEG = math.pi / 180.0
 
 #: Index of ψ (heading, rad, from north, clockwise) and r (yaw rate) in both models.
 PSI, R = 4, 5
@@ -71,6 +72,18 @@ KINDS = {
     #: the GNSS's own velocity over ground (its Doppler SOG/COG as north, east)
     "velocity": Kind("velocity", 2),
 }
+
+
+def say(kind: str, v: np.ndarray, size: bool = False) -> str:
+    """A reading of a kind (or, with `size`, the size of a difference between two), in
+    the units a navigator reads: health's words."""
+    if kind in ("heading", "yaw_rate"):
+        x = abs(float(v[0])) if size else float(v[0])
+        return f"{x / DEG:.1f}°" if kind == "heading" else f"{x / DEG:.3f}°/s"
+    unit = {"position": "m", "velocity": "m/s"}.get(kind, "m/s²")
+    if size:
+        return f"{float(np.max(np.abs(v)) if unit == 'm/s²' else np.hypot(v[0], v[1])):.3g} {unit}"
+    return f"{', '.join(f'{float(x):.3g}' for x in v)} {unit}"
 
 
 def rk4(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float, substep: float) -> np.ndarray:

@@ -370,20 +370,6 @@ def test_a_prediction_ellipse_from_a_process_noise_far_too_high_is_sized_by_the_
     assert major[1] < 0.1 * major[0]
 
 
-def _run_skipping_gaps(core, measurements, rate: float = 10.0, bound: int = 1000) -> list:
-    """Feed as the worker host does, which fires at most `bound` ticks at once and
-    skips the rest of a longer gap."""
-    out, nxt = [], None
-    for m in measurements:
-        if nxt is None or (m.t - nxt) * rate > bound:
-            nxt = math.floor(m.t * rate) / rate + 1.0 / rate
-        while m.t >= nxt - 1e-9:
-            out.extend(core.tick(nxt))
-            nxt = round(nxt + 1.0 / rate, 6)
-        core.step(m)
-    return out
-
-
 def test_a_thirty_day_gap_starts_the_filter_again_with_bounded_work(monkeypatch):
     import edged_manoeuvre.core as core_mod
     import edged_manoeuvre.ekf as ekf_mod
@@ -407,7 +393,7 @@ def test_a_thirty_day_gap_starts_the_filter_again_with_bounded_work(monkeypatch)
     ms = list(first.measurements()) + [
         Measurement(m.kind, m.source, m.t + gap, m.values) for m in second.measurements()]
     core = _core()
-    out = _run_skipping_gaps(core, ms)
+    out = run(core, ms, bound=1000)
     h = core.health()
     assert h["events"].get("gap") == 1 and h["last_reset"] == "a gap of 2591940 s in every input"
     assert max(spans) <= core.cfg.reset_after  # never integrated across the gap
@@ -425,7 +411,7 @@ def test_a_gap_shorter_than_reset_after_is_integrated_across():
     ms = list(first.measurements())
     ms = [m for m in ms if not (T0 + 30.0 < m.t < T0 + 40.0)]  # 10 s without any input
     core = _core()
-    out = _run_skipping_gaps(core, ms)
+    out = run(core, ms, bound=1000)
     assert "gap" not in core.health()["events"]
     assert out[-1].values["converging"] is False
 
@@ -502,17 +488,9 @@ def test_saturated_accelerometers_are_left_out_and_named():
     sat = {"ax": 32.767, "ay": 32.767, "az": 32.767}
     ms = _with_fault(voyage, "accel_body", 60.0, 70.0, lambda m: Measurement(m.kind, m.source, m.t, sat))
     core = _core()
-    out, said = [], []
-    nxt = None
-    for m in ms:
-        if nxt is None:
-            nxt = math.floor(m.t * 10) / 10 + 0.1
-        while m.t >= nxt - 1e-9:
-            out += core.tick(nxt)
-            nxt = round(nxt + 0.1, 6)
-            if abs(nxt - (T0 + 65.0)) < 1e-6 or abs(nxt - (T0 + 100.0)) < 1e-6:
-                said.append(core.health()["problems"])
-        core.step(m)
+    noted: dict = {T0 + 65.0: None, T0 + 100.0: None}
+    out = run(core, ms, problems=noted)
+    said = list(noted.values())
     h = core.health()
     assert h["rejected"]["accel.range"] == 500 and h["divergences"] == 0
     assert said[0] and said[0][0].startswith("accel/imu: reading 32.8 m/s²") and said[1] == []
@@ -533,17 +511,9 @@ def test_a_frozen_compass_is_left_out_while_the_gyro_turns_and_the_heading_stays
 
     ms = _with_fault(voyage, "heading", 40.0, 100.0, freeze)  # 60 s of a steady turn at 1°/s
     core = _core()
-    out, said = [], None
-    nxt = None
-    for m in ms:
-        if nxt is None:
-            nxt = math.floor(m.t * 10) / 10 + 0.1
-        while m.t >= nxt - 1e-9:
-            out += core.tick(nxt)
-            nxt = round(nxt + 0.1, 6)
-            if abs(nxt - (T0 + 70.0)) < 1e-6:
-                said = core.health()["problems"]
-        core.step(m)
+    noted: dict = {T0 + 70.0: None}
+    out = run(core, ms, problems=noted)
+    said = noted[T0 + 70.0]
     h = core.health()
     assert h["rejected"]["heading.frozen"] > 500
     assert said and said[0].startswith("heading/gyro: frozen at ")
@@ -564,17 +534,9 @@ def test_a_position_jumping_10_km_for_60_s_is_held_out_and_named():
 
     ms = _with_fault(voyage, "position", 60.0, 120.0, jump)
     core = _core()
-    out, said = [], None
-    nxt = None
-    for m in ms:
-        if nxt is None:
-            nxt = math.floor(m.t * 10) / 10 + 0.1
-        while m.t >= nxt - 1e-9:
-            out += core.tick(nxt)
-            nxt = round(nxt + 0.1, 6)
-            if abs(nxt - (T0 + 90.0)) < 1e-6:
-                said = core.health()["problems"]
-        core.step(m)
+    noted: dict = {T0 + 90.0: None}
+    out = run(core, ms, problems=noted)
+    said = noted[T0 + 90.0]
     assert said and said[0].startswith("position/gnss: fixes 10.0 km from the track")
     assert core.health()["events"].get("position_jump") is None
     for e in out:

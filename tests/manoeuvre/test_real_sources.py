@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from manoeuvre_data import measurements
 from manoeuvre_real import DATA, LOGS, available
+from manoeuvre_stream import run
 
 from edged_manoeuvre.config import ManoeuvreConfig
 from edged_manoeuvre.core import ManoeuvreCore
@@ -38,14 +39,7 @@ def _feed(name: str):
     core = ManoeuvreCore(ManoeuvreConfig(type="manoeuvre"))
     # the worker host's grid, restarted after a hole in the log's time (can0-1's 0.43 s
     # stamped 13.9 days early)
-    out, nxt = [], None
-    for m in ms:
-        if nxt is None or m.t - nxt > 5.0:
-            nxt = math.floor(m.t * 10) / 10 + 0.1
-        while m.t >= nxt - 1e-9:
-            out += core.tick(nxt)
-            nxt = round(nxt + 0.1, 6)
-        core.step(m)
+    out = run(core, ms, bound=50)
     return ms, core, out
 
 

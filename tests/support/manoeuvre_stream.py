@@ -94,15 +94,22 @@ class Manoeuvre:
             u, v, psi = u1, v1, psi1
 
 
-def run(core, measurements, rate: float = 10.0) -> list:
-    """Feed a core as the worker host does: ticks on the data-time grid k/rate."""
+def run(core, measurements, rate: float = 10.0, bound: int | None = None,
+        problems: dict[float, list[str] | None] | None = None) -> list:
+    """Feed a core as the worker host does: ticks on the data-time grid k/rate; with
+    `bound`, at most that many ticks at once (the host skips the rest of a longer
+    gap); `problems` maps tick times to fill with health's problems just after them."""
     out = []
     nxt = None
     for m in measurements:
-        if nxt is None:
+        if nxt is None or (bound is not None and (m.t - nxt) * rate > bound):
             nxt = math.floor(m.t * rate) / rate + 1.0 / rate
         while m.t >= nxt - 1e-9:
             out.extend(core.tick(nxt))
+            if problems is not None:
+                for at in problems:
+                    if abs(nxt - at) < 1e-6:
+                        problems[at] = core.health()["problems"]
             nxt = round(nxt + 1.0 / rate, 6)
         core.step(m)
     return out
