@@ -209,6 +209,11 @@ def test_drift_through_the_water_with_a_known_current():
     psi = v["heading"]
     cu, cv = 0.5 * math.sin(psi), 0.5 * math.cos(psi)
     assert v["drift_angle_water"] == pytest.approx(math.atan2(v["v"] - cv, v["u"] - cu), abs=1e-9)
+    # its value and sign: heading 030° at u 6, v +0.2 m/s over ground, the current
+    # setting east sets her to port through the water: atan2(0.2 − 0.433, 6 − 0.25)
+    truth = math.atan2(0.2 - 0.5 * math.cos(math.radians(30.0)), 6.0 - 0.5 * math.sin(math.radians(30.0)))
+    assert truth < 0.0 and v["drift_angle_water"] == pytest.approx(truth, abs=math.radians(0.3))
+    assert v["drift_angle"] == pytest.approx(math.atan2(0.2, 6.0), abs=math.radians(0.3))  # starboard over ground
     # a current three hours old says nothing any more
     core._current = (core._current[0] - 4 * 3600.0, *core._current[1:])
     assert core.tick(ms[-1].t + 0.1)[0].values["drift_angle_water"] is None
@@ -224,7 +229,8 @@ def test_drift_through_the_water_from_the_stw_estimator():
         if i == 50:
             core.step(Estimate("stw", "stw", m.t, {"current": 0.5, "current_set": math.pi / 2}))
     out = core.tick(ms[-1].t + 0.05)
-    assert out[0].values["drift_angle_water"] is not None
+    truth = math.atan2(0.2 - 0.5 * math.cos(math.radians(30.0)), 6.0 - 0.5 * math.sin(math.radians(30.0)))
+    assert out[0].values["drift_angle_water"] == pytest.approx(truth, abs=math.radians(0.3))
 
 
 def test_prediction_of_a_steady_turn_follows_the_circle_and_its_ellipse_grows():
