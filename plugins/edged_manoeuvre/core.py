@@ -231,7 +231,6 @@ class ManoeuvreCore:
         self._t_input: float | None = None  # the newest input's data time
         self._sideways: tuple[float, float, float] | None = None  # since, drift angle, sog
         self._far_what = ""
-        self._far_t = -math.inf
         self._since_start: Counter[str] = Counter()  # updates applied since the start
         self._prediction: tuple[float, list[dict[str, float]]] | None = None
         #: When a list (the Monte-Carlo harness sets one): (t, kind, NIS, dof, applied,
@@ -649,7 +648,6 @@ class ManoeuvreCore:
         if t - since < JUMP_HOLD:
             self.rejected["position.far"] += 1
             self._far_what = f"position/{source}: fixes {d / 1000.0:.1f} km from the track for {t - since:.0f} s, kept out"
-            self._far_t = t
             return True
         del self._far_since[source]
         self.filter.reset_position(z, self.noise[("position", source)].R())
@@ -727,6 +725,7 @@ class ManoeuvreCore:
             b.forget_pending()
         self._r_lf = self._r_lf_t = None
         self._sideways = None
+        self.faults.forget()
         self._far_since.clear()
         self._sog_off = 0
 

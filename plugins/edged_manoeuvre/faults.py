@@ -134,6 +134,8 @@ class SensorFaults:
                 if t - s.bad_t <= FAULT_MEMORY]
 
     def forget(self) -> None:
+        """The filter started again: the gyro's turn counted so far belongs to no
+        compass reading the new filter will take."""
         self._rate = None
         for s in self._streams.values():
             s.turn = 0.0
