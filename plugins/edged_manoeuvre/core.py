@@ -873,7 +873,8 @@ class ManoeuvreCore:
         if made is None or rate <= 0.0 or t - made[0] >= 1.0 / rate - 1e-6 or t < made[0]:
             runs = self.predictor.run(x, P, self.Qc)
             rows = self.predictor.predicted(runs, plane.to_geodetic, [c.scale for c in self.calibration])
-            self._blend(t, x, P, runs, rows)
+            if self.cfg.mode != "paper":  # the paper's predictor is the model alone
+                self._blend(t, x, P, runs, rows)
             if self.cfg.ellipse_window > 0.0:
                 for c, (_, _, Ph), row in zip(self.calibration, runs, rows):
                     c.add(t, row["lat"], row["lon"], Ph[0:2, 0:2])
