@@ -234,13 +234,13 @@ def test_drift_through_the_water_from_the_stw_estimator():
 
 
 def test_prediction_of_a_steady_turn_follows_the_circle_and_its_ellipse_grows():
-    voyage = _voyage(duration=200.0, r_deg=0.5, heading_deg=0.0)
+    voyage = _voyage(duration=300.0, r_deg=0.5, heading_deg=0.0)
     core = _core()
     out = run(core, voyage.measurements())
     plane = LocalPlane(57.6, 11.5)
-    # from when the 60-s predictions that came due (20 of them, `blend.py`) have shown
-    # the model better than dead reckoning
-    fresh = [e for e in out if e.t - T0 > 90.0 and e.values["predicted"][0]["dt"] == 10.0
+    # from when the 60-s predictions that came due (over 2 horizons, `blend.py`) have
+    # shown the model better than dead reckoning
+    fresh = [e for e in out if e.t - T0 > 190.0 and e.values["predicted"][0]["dt"] == 10.0
              and e.t - T0 + 60.0 <= voyage.duration]
     assert fresh
     weights = core.health()["prediction"]["60"]["weights"]
