@@ -49,6 +49,8 @@ MAX_CURRENT = 10.0
 MAX_ACCEL = 20.0
 #: The log is fitted only against an STW known better than this (m/s).
 DVL_FIT_MAX_STD = 0.5
+#: A position and a velocity this close in time (s) are one GNSS epoch.
+GNSS_EPOCH = 1.0
 #: Kinds that move the ground filter: a gap in them is a gap in the data.
 GROUND = frozenset({"position", "velocity_ground"})
 #: Kinds whose NIS health watches (the log has its own watch: it never moves the estimate).
@@ -72,6 +74,8 @@ class StwCore:
         self._forecast_t = -math.inf  # data time of the last accepted forecast
         self._constant_t = -math.inf
         self._gated_in_row: Counter[str] = Counter()
+        #: Per GNSS kind, the last measurement the gate kept out (t, how to trust it).
+        self._gated_last: dict[str, tuple[float, Any]] = {}
         self._warnings: list[str] = []
         self._pending_forecast: tuple[float, float, float, float] | None = None
         self._forecast_nis: list[float] = []
@@ -136,6 +140,7 @@ class StwCore:
         self._carry_distance = distance
         self._accel = None
         self._gated_in_row.clear()
+        self._gated_last.clear()
         self._forecast_nis.clear()
         self._forecast_t = -math.inf
         self._constant_t = -math.inf
@@ -168,7 +173,7 @@ class StwCore:
             m.position(t, lat, lon)
             return
         nis, used = m.position(t, lat, lon)
-        self._gate_result("position", nis, used, lambda: m.reset_position(lat, lon), "position jump")
+        self._gate_result(t, "position", nis, used, lambda: m.reset_position(lat, lon), "position jump")
 
     def _on_velocity_ground(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
         sog, cog = v.get("sog"), v.get("cog")
@@ -191,7 +196,7 @@ class StwCore:
             return
         v_n, v_e = sog * math.cos(cog), sog * math.sin(cog)
         nis, used = m.velocity(t, v_n, v_e)
-        self._gate_result("velocity_ground", nis, used, lambda: m.reset_velocity(v_n, v_e), "SOG/COG jump")
+        self._gate_result(t, "velocity_ground", nis, used, lambda: m.reset_velocity(v_n, v_e), "SOG/COG jump")
         if used:
             heading = self._fresh_heading(t)
             if heading is not None and not self._turning(t):
@@ -211,15 +216,34 @@ class StwCore:
             q = self._recent[kind] = deque(maxlen=50)
         q.append(gated)
 
-    def _gate_result(self, kind: str, nis: float | None, used: bool, reset: Any, what: str) -> None:
+    def _gate_result(self, t: float, kind: str, nis: float | None, used: bool, reset: Any, what: str) -> None:
+        """Count a GNSS gate's verdict; trust the GNSS again when it keeps disagreeing.
+
+        A position and a velocity of one epoch (within GNSS_EPOCH s) that both fail the
+        gate are one story, not two outliers: the vessel did what the filter did not
+        expect (an order to slow down taken between 30-s fixes, which a 1 Hz IMU shows
+        only within its noise), and the filter restarts from the GNSS at once. A jump
+        of the position alone (multipath, a spoofed fix) leaves the velocity in the gate
+        and is still kept out until `gnss_reset_after` in a row."""
         self._verdict(kind, not used)
         if used:
             self._gated_in_row[kind] = 0
+            self._gated_last.pop(kind, None)
             if nis is not None:
                 self.monitor.update(kind, nis, 2)
             return
         self.monitor.gated(kind)
         self.rejected[f"{kind}.gate"] += 1
+        other = self._gated_last.get("position" if kind == "velocity_ground" else "velocity_ground")
+        if other is not None and abs(t - other[0]) <= GNSS_EPOCH:
+            other[1]()
+            reset()
+            self._gated_last.clear()
+            self._gated_in_row.clear()
+            self.monitor.reset("GNSS position and velocity both disagree with the filter: a manoeuvre it missed; "
+                               "restarted from the GNSS", None)
+            return
+        self._gated_last[kind] = (t, reset)
         self._gated_in_row[kind] += 1
         if self._gated_in_row[kind] >= self.cfg.gnss_reset_after:
             reset()

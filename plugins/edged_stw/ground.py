@@ -45,6 +45,12 @@ Q_GAIN = 0.1
 #: fix) raises q by e^(Q_GAIN·(Q_UP − 1)) ≈ 1.5× per update, not by orders of magnitude
 #: that the slow fixes of a large ship would take an hour to bring down again.
 Q_UP = 5.0
+#: The jerk density after the GNSS showed a manoeuvre the filter missed (m²/s⁵): an
+#: order that changes the acceleration by 0.05 m/s² within 25 s (q·T = 0.05²). From
+#: there q comes down again with the innovations; left at a laden ship's 1e-7, the
+#: acceleration σ is back to 0.003 m/s² within a minute and the next change of the
+#: order (the end of the slowing down) is missed the same way.
+Q_ORDER = 1e-4
 
 
 def transition(T: float, r: float = 0.0) -> np.ndarray:
@@ -164,6 +170,8 @@ class GroundFilter:
         self.P[POS, POS] = np.eye(2) * sigma * sigma
 
     def reset_velocity(self, v_n: float, v_e: float, sigma: float) -> None:
+        """Trust the GNSS velocity again: the motion changed faster than q allowed."""
+        self.q = max(self.q, Q_ORDER)
         self.x[VEL] = (v_n, v_e)
         self.x[ACC] = 0.0
         self.P[VEL, :] = 0.0
