@@ -1,9 +1,13 @@
 """The sea current and the sway through the water: an IMM filter of three hypotheses.
 
 State (local plane, north/east):
-    y = [c_n, c_e, ċ_n, ċ_e, s]
+    y = [c_n, c_e, ċ_n, ċ_e, s, k]
     c: current (velocity of the water over ground), ċ: its rate of change, s: sway of
-    the hull through the water (leeway).
+    the hull through the water (leeway), k: the sway a rate of turn gives (m/rad): a
+    turning hull pivots about a point ahead of the reference point, which then slides
+    outwards at v = k·r, k ≈ −x_pivot (a 300 m tanker turning at 0.2°/s sways 0.4 m/s
+    through the water for as long as she turns; read as current, that is 0.4 m/s of
+    current across, and after her next 90° turn along, the ship).
 
 No single random-walk σ_c suits both a steady following current and a rotating cross
 current (ESTIMATORS.md §1), so three hypotheses run side by side and are mixed by how
@@ -16,11 +20,13 @@ Mixing (each hypothesis switching to another with probability `switch`) happens 
 forecast, the only moment the along-track current is observed; the mode probabilities
 move with the forecast and the heading-course likelihoods.
     s(k+1) = φ·s + w_s,  φ = exp(−T/τ_s),  Q_s = σ_s²(1 − φ²)   (leeway persists for τ_s)
+    k(k+1) = k + w_k,    Q_k = q_k·T           (a property of the hull and its loading)
 
 Measurements:
     forecast            z = [c_n, c_e]                     R = σ_f²·I
-    heading vs course   z = v_g·ŷ = c·ŷ + s                (ŷ: the ship's starboard axis;
-                        the hull's velocity through the water is along the ship but for s)
+    heading vs course   z = v_g·ŷ = c·ŷ + s + k·r          (ŷ: the ship's starboard axis, r the
+                        gyro's rate of turn; the hull's velocity through the water is
+                        along the ship but for its sway; k is seen when r changes)
                         a Schmidt update: the current along the ship (c·x̂, ċ·x̂) is held,
                         only the part across the ship and s move (`gating.consider_update`)
 The Doppler log is not a measurement of this filter (`dvl.py` fits it).
@@ -35,8 +41,13 @@ import numpy as np
 
 from .gating import cap_variance, consider_update, innovation, update
 
-C, RATE, S = slice(0, 2), slice(2, 4), 4
-N_STATE = 5
+C, RATE, S, K = slice(0, 2), slice(2, 4), 4, 5
+N_STATE = 6
+#: Prior σ of k (m/rad): the pivot point of a 300 m ship lies up to ~100 m ahead of
+#: midships; a yacht's, a few metres.
+K_SIGMA = 150.0
+#: k's random walk (m²/rad²/s): 10 m an hour (loading, speed, depth change it slowly).
+Q_K = 10.0**2 / 3600.0
 _H_FORECAST = np.eye(N_STATE)[C]
 
 
@@ -65,7 +76,7 @@ class CurrentFilter:
         self.p = p
         self.modes = p.modes()
         n = len(self.modes)
-        P = np.diag([p.prior_sigma**2] * 2 + [p.rate_sigma**2] * 2 + [p.leeway_sigma**2])
+        P = np.diag([p.prior_sigma**2] * 2 + [p.rate_sigma**2] * 2 + [p.leeway_sigma**2, K_SIGMA**2])
         self.y = [np.zeros(N_STATE) for _ in range(n)]
         self.P = [self._pin(P.copy()) if q is None else P.copy() for _, q in self.modes]
         self.mu = np.full(n, 1.0 / n)
@@ -102,6 +113,7 @@ class CurrentFilter:
         phi = math.exp(-T / p.leeway_time)
         F[S, S] = phi
         Q[S, S] = self.sway_sigma**2 * (1.0 - phi * phi)
+        Q[K, K] = Q_K * T
         return F, Q
 
     def _predict_one(self, y: np.ndarray, P: np.ndarray, T: float, q_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
@@ -198,12 +210,15 @@ class CurrentFilter:
             P[:, C] = 0.0
             P[C, C] = np.eye(2) * sigma * sigma
 
-    def cross(self, t: float, z: float, starboard: np.ndarray, var: float, gate: float) -> tuple[float, bool]:
-        """Heading vs course: the ground velocity across the ship is current + sway."""
+    def cross(self, t: float, z: float, starboard: np.ndarray, var: float, gate: float,
+              r: float = 0.0) -> tuple[float, bool]:
+        """Heading vs course: the ground velocity across the ship is current + sway, the
+        sway being the leeway and the turn's k·r (r: rate of turn, rad/s)."""
         self.predict(t)
         H = np.zeros((1, N_STATE))
         H[0, C] = starboard
         H[0, S] = 1.0
+        H[0, K] = r
         y, P = self.mixture()
         _, _, nis = innovation(y, P, np.array([z]), np.array([[var]]), H)
         if not nis <= gate:  # NaN fails too

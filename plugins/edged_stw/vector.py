@@ -130,7 +130,7 @@ class VectorModel:
         var = float(stbd @ g.P[VEL, VEL] @ stbd) + (math.radians(self.cfg.heading_sigma_deg) * speed) ** 2
         # The sway state also carries a compass misalignment: it scales with speed.
         cur.sway_sigma = math.hypot(self.cfg.leeway_sigma, speed * math.radians(self.cfg.heading_bias_deg))
-        return cur.cross(t, float(v @ stbd), stbd, var, CROSS_GATE)
+        return cur.cross(t, float(v @ stbd), stbd, var, CROSS_GATE, g.r)
 
     def forecast_nis(self, t: float, c_n: float, c_e: float, var: float) -> float:
         assert self.current is not None
