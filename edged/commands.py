@@ -21,6 +21,7 @@ from .records import HealthRecord
 from .registry import PluginNotFound, Registry
 from .replay import Replayer, ReplayStats, UnknownFormat
 from .runtime import OutputHost, PluginBuildError, Runtime
+from .signals import StopSignals
 
 log = logging.getLogger("edged")
 
@@ -111,12 +112,12 @@ async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: f
         reopen_logs()
         rt.rotate()
 
-    for sig, handler in ((signal.SIGTERM, stop.set), (signal.SIGINT, stop.set), (signal.SIGHUP, _hup)):
-        try:
-            loop.add_signal_handler(sig, handler)
-            installed.append(sig)
-        except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
-            pass
+    try:
+        loop.add_signal_handler(signal.SIGHUP, _hup)
+        installed.append(signal.SIGHUP)
+    except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
+        pass
+    stops = StopSignals(loop, lambda sig: stop.set(), rt.config.edged.shutdown_timeout).install()
     try:
         await rt.start()
         log.info(
@@ -136,6 +137,7 @@ async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: f
         log.info("event=stopping")
     finally:
         await rt.stop()
+        stops.remove()
         for sig in installed:
             loop.remove_signal_handler(sig)
     log.info("event=stopped")
@@ -438,13 +440,7 @@ async def _replay(
         if task is not None:
             task.cancel()
 
-    installed: list[int] = []
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        try:
-            loop.add_signal_handler(sig, on_signal, sig)
-            installed.append(sig)
-        except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
-            pass
+    stops = StopSignals(loop, on_signal, rt.config.edged.shutdown_timeout).install()
     try:
         await rt.start()
         task = loop.create_task(replayer.run(), name="replay")
@@ -467,7 +463,6 @@ async def _replay(
             task.cancel()
         outcome.states = {o.name: o.health.state for o in rt.outputs}
         await rt.stop()
-        for sig in installed:
-            loop.remove_signal_handler(sig)
+        stops.remove()
         if bar is not None:
             bar.close()

@@ -45,6 +45,7 @@ from .health import ComponentHealth
 from .plugin import EstimatorPlugin
 from .records import Estimate, HealthRecord
 from .router import Router
+from .signals import StopRequested, step as core_step
 from .outputproc import sigkill
 from .workerproc import core_health, run_calls, serve
 
@@ -107,9 +108,12 @@ class LoopRunner:
     async def call(self, calls: list[Call]) -> list[list[Any]]:
         results: list[list[Any]] = []
         try:
-            run_calls(self.core, calls, results)
+            with core_step():
+                run_calls(self.core, calls, results)
         except Exception as exc:
             raise CoreFailed(f"{type(exc).__name__}: {exc}", results) from exc
+        except StopRequested as exc:  # a stop signal, and the step would not end
+            raise CoreFailed(f"stopped: {exc}", results) from None
         return results
 
     def report(self) -> dict[str, Any] | None:

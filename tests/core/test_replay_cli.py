@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -165,3 +166,78 @@ def test_a_replay_whose_core_failed_and_lost_inputs_exits_1(registry, write_conf
     cfg = write_config('[estimators.sum]\ntype = "sum"\nfail_on = 2.0\n[outputs.rec]\ntype = "list"\n')
     assert _run(registry, "replay", str(logs[0]), "-c", str(cfg), "--no-zenoh", "--no-progress") == 1
     assert "estimator sum: lost" in capsys.readouterr().err
+
+
+_HUNG_DAEMON = """
+import sys
+import time
+sys.path.insert(0, {support!r})
+from core_dummies import DummyInput, ListOutput, MeanEstimator
+from edged.cli import build_parser
+from edged.commands import dispatch
+from edged.registry import Registry
+
+r = Registry(use_entry_points=False)
+r.register("inputs", "dummy", DummyInput)
+r.register("estimators", "mean", MeanEstimator)
+r.register("outputs", "list", ListOutput)
+sys.exit(dispatch(build_parser().parse_args(["run", "-c", {config!r}]), r))
+"""
+
+
+@pytest.mark.parametrize("how", ["sleeps", "computes"])
+def test_sigterm_is_honoured_while_a_core_step_holds_the_event_loop(tmp_path, how):
+    """A core in the loop whose step does not return (issue 30: a filter integrating
+    across a month, deaf to SIGTERM for ten minutes) is interrupted half a shutdown
+    timeout after the signal, reported as the core's failure, and the daemon stops with
+    its outputs closed, within shutdown_timeout."""
+    cfg = tmp_path / "hung.toml"
+    hang = "hang_on = 0.25\nhang_for = 600.0\n" if how == "sleeps" else ""
+    cfg.write_text(f"""[edged]
+vessel_id = "hung"
+shutdown_timeout = 2.0
+
+[inputs.d]
+type = "dummy"
+lines = ["100 yaw_rate r=0.25"]
+
+[estimators.m]
+type = "mean"
+worker = "loop"
+{hang}
+[outputs.l]
+type = "list"
+""")
+    support = str(Path(__file__).resolve().parents[1] / "support")
+    script = tmp_path / "hung.py"
+    script.write_text(_HUNG_DAEMON.format(support=support, config=str(cfg)))
+    if how == "computes":  # a pure-Python loop that never ends, no system call to interrupt
+        script.write_text(script.read_text().replace(
+            "r = Registry", "import core_dummies\n"
+            "def _forever(self, rec):\n"
+            "    print('event=core-hangs', file=sys.stderr, flush=True)\n"
+            "    n = 0\n"
+            "    while True:\n"
+            "        n += 1\n"
+            "core_dummies.MeanCore.step = _forever\n"
+            "r = Registry", 1))
+    proc = subprocess.Popen([sys.executable, str(script)], stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        for line in proc.stderr:  # the step has begun: not a sleep
+            if "event=core-hangs" in line:
+                break
+        else:
+            raise AssertionError("the core never hung")
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        rest = proc.communicate(timeout=30)[1]
+        rc = proc.returncode
+        took = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert rc == 0, rest[-2000:]
+    assert took < 2.0 + 1.5, took  # shutdown_timeout, and the interpreter's own exit
+    assert "event=stopped" in rest
+    assert "held the event loop" in rest, rest[-2000:]

@@ -190,6 +190,9 @@ class MeanCore:
         if self.cfg.step_delay:
             time.sleep(self.cfg.step_delay)
         if self.cfg.hang_on is not None and r == self.cfg.hang_on:
+            import sys
+
+            print("event=core-hangs", file=sys.stderr, flush=True)  # for a test that signals it now
             time.sleep(self.cfg.hang_for)
         if abs(r) > 1.0:
             self.monitor.gated("yaw_rate")
