@@ -87,3 +87,27 @@ def test_two_logs_from_different_days_replay_without_integrating_the_gap(tmp_pat
         for _, _, msg in make_reader(f).iter_messages(topics=["/est/manoeuvre"]):
             times.append(json.loads(msg.data)["t"])
     assert min(times) < 1.5e9 < max(times)  # estimates of both days
+
+
+def test_every_nmea_0183_log_at_once_replays_in_seconds(tmp_path):
+    """All eleven NMEA 0183 logs of ../shared/data in one replay (2005 to 2021, a land
+    vehicle and a sounder among them): every gap between them is a restart, not hours of
+    integration. Measured: 15 s of CPU on this machine; the limit leaves room for a
+    loaded CI machine."""
+    data = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "nmea0183"
+    logs = sorted(data.glob("*.log"))
+    if len(logs) < 2:
+        pytest.skip("../shared/data not here")
+    rec = tmp_path / "rec.mcap"
+    done = subprocess.run(EDGED + ["replay", *map(str, logs), "--no-zenoh", "--no-progress", "--record", str(rec)],
+                          capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-2000:]
+    said = done.stdout + done.stderr
+    assert "estimator manoeuvre:" in said and ", 0 errors" in said.split("estimator manoeuvre:")[1].splitlines()[0]
+    from mcap.reader import make_reader
+
+    days = set()
+    with rec.open("rb") as f:
+        for _, _, msg in make_reader(f).iter_messages(topics=["/est/manoeuvre", "/est/stw"]):
+            days.add(int(json.loads(msg.data)["t"] // 86400))
+    assert len(days) >= 4, sorted(days)  # estimates of several logs' days, not only the first
