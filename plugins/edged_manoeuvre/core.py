@@ -119,6 +119,9 @@ SOG_OFF = 2.0
 SOG_OFF_SIGMAS = 6.0
 SOG_OFF_RUN = 5
 SOG_SIGMA = 0.2
+#: A GNSS position and velocity this close in time (s) are one epoch: both beyond their
+#: gates is one story, a manoeuvre the filter missed, not two outliers (`_gnss_gated`).
+GNSS_EPOCH = 1.0
 #: Sensors whose noise is white, so that their readings' own roughness bounds it
 #: (`adaptive.Roughness`): rate gyros. Not a GNSS position (its error wanders over
 #: seconds: bounded so, its R fell below the truth and its NIS rose to 2.4 per dof),
@@ -211,6 +214,7 @@ class ManoeuvreCore:
         self.faults = SensorFaults()
         self._far_since: dict[str, float] = {}  # position source -> first fix far off the track
         self._sog_off = 0  # SOG/COG measurements in a row far from the estimate
+        self._gnss_gated: dict[str, float] = {}  # kind → data time of its last gated update
         self.copies = SourceCopies(DISAGREE_FLOOR, self._choose, one_at_a_time=frozenset({"position", "velocity"}))
         self._track: deque[tuple[float, float, float]] = deque()  # (t, p_n, p_e) of the fixes taken
         self.muted: Counter[str] = Counter()
@@ -604,6 +608,8 @@ class ManoeuvreCore:
                 for q in self._driven_by(kind, t):
                     q.add(t, min(inn.nis, 2.0 * limit), dof)
             gate.result(False)
+            if kind in ("position", "velocity") and self._gnss_gated_both(kind, t, source):
+                return
             if kind == "position" and gate.in_row >= gate.run:
                 self._position_jump(z, R_)
             return
@@ -652,6 +658,28 @@ class ManoeuvreCore:
         del self._far_since[source]
         self.filter.reset_position(z, self.noise[("position", source)].R())
         self.resets["position_jump"] += 1
+        return True
+
+    def _gnss_gated_both(self, kind: str, t: float, source: str) -> bool:
+        """A position and a velocity of one GNSS epoch both kept out by their gates: the
+        vessel did what the filter did not expect (a yacht in a seaway between 30-s
+        fixes lost her speed to 0 and stayed there, 28 SOG/COG gated in 30 minutes; a
+        tanker's order to slow down). The filter starts again from this epoch's fix and
+        SOG/COG (counted `diverged`). A fix that jumped alone leaves the velocity in its
+        gate, and is held out as before."""
+        other = self._gnss_gated.get("velocity" if kind == "position" else "position")
+        self._gnss_gated[kind] = t
+        if other is None or abs(t - other) > GNSS_EPOCH:
+            return False
+        fix = self._raw_fix
+        self._gnss_gated.clear()
+        self._diverged("a GNSS position and velocity of one epoch both beyond their gates: "
+                       "a manoeuvre the filter missed")
+        if fix is not None and self.plane is not None and abs(fix[0] - t) <= GNSS_EPOCH:
+            pn, pe = self.plane.to_ne(fix[1], fix[2])
+            if kind == "position":
+                self._fixes_source = source
+            self._fixes.append((fix[0], pn, pe))
         return True
 
     def _sog_check(self, t: float, vn: float, ve: float) -> None:
@@ -728,6 +756,7 @@ class ManoeuvreCore:
         self.faults.forget()
         self._far_since.clear()
         self._sog_off = 0
+        self._gnss_gated.clear()
 
     def _choose(self, kind: str, first: str, second: str, z1: np.ndarray, z2: np.ndarray) -> tuple[str, str]:
         """Which of two disagreeing sources to keep: for compasses, the one nearer the

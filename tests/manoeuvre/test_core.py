@@ -596,3 +596,41 @@ def test_without_an_imu_the_sog_is_no_worse_than_the_gnss_its_doppler_velocity_g
     assert np.sqrt(np.mean(np.square(err))) <= np.sqrt(np.mean(np.square(raw[30:]))), (
         np.sqrt(np.mean(np.square(err))), np.sqrt(np.mean(np.square(raw[30:]))))
     assert core.health()["innovation"]["velocity"]["updates"] > 250
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_filter_sure_of_a_wrong_speed_starts_again_at_the_first_gnss_epoch_against_it(seed):
+    """GNSS every 30 s with SOG/COG. The filter is told it goes 3 m/s faster than she does
+    and is sure of it (as a yacht in a seaway between 30-s fixes once was of 0 m/s):
+    the next epoch's fix and SOG/COG both fail their gates. One story, not two outliers:
+    the filter starts again from that fix and SOG/COG at once (before, the velocity's
+    five-in-a-row check took 2.5 minutes)."""
+    voyage = _voyage(duration=200.0, gnss_hz=10.0, seed=seed)
+    rng = np.random.default_rng(seed)
+    ms = []
+    for m in voyage.measurements():
+        if m.kind == "position":
+            if round(m.t - T0, 3) % 30.0:
+                continue
+            tr = truth_at(voyage.truth, m.t)
+            vn = tr[3] * math.cos(tr[5]) - tr[4] * math.sin(tr[5]) + rng.normal(0.0, 0.05)
+            ve = tr[3] * math.sin(tr[5]) + tr[4] * math.cos(tr[5]) + rng.normal(0.0, 0.05)
+            ms += [m, Measurement("velocity_ground", "gnss", m.t + 0.01,
+                                  {"sog": math.hypot(vn, ve), "cog": math.atan2(ve, vn) % (2 * math.pi)})]
+            continue
+        ms.append(m)
+    ms.sort(key=lambda m: m.t)
+    core = _core()
+    cut = next(i for i, m in enumerate(ms) if m.t - T0 > 95.0)
+    run(core, ms[:cut])
+    f = core.filter
+    assert f is not None
+    f.x[2] += 3.0  # u
+    f.P[2, :] *= 1e-3
+    f.P[:, 2] *= 1e-3
+    out = run(core, ms[cut:])
+    h = core.health()
+    assert h["events"].get("diverged") == 1 and "a manoeuvre the filter missed" in h["last_reset"], h["last_reset"]
+    after = [e for e in out if e.t - T0 > 120.5]  # the epoch at 120 s restarted it
+    assert after and after[0].t - T0 < 126.0  # from its fix and SOG/COG once no second fix came in 5 s
+    assert all(abs(e.values["u"] - truth_at(voyage.truth, e.t)[3]) < 0.3 for e in after)
