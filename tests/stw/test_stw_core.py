@@ -12,7 +12,7 @@ from edged.records import Measurement
 from edged_stw.config import StwConfig
 from edged_stw.core import StwCore
 from edged_stw.paper import paper_matrices
-from stw_stream import T0, Voyage, run
+from stw_stream import T0, Voyage, naive, run
 
 
 def core(**kw) -> StwCore:
@@ -38,16 +38,47 @@ def test_estimate_has_every_design_field():
     assert set(est[-1].values) - {"mode", "converging"} <= fields
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_following_current_beats_the_log_and_sigma_is_honest(seed):
-    v = Voyage(seed=seed, duration=2 * 3600)
-    est = run(core(), v.measurements())
-    err = errors(est, v.speed)
-    sig = np.array([e.values["stw_std"] for e in est if e.t >= T0 + 1200])
-    rmse = float(np.sqrt(np.mean(err**2)))
-    assert rmse < 0.2  # the log reads 0.3 high: well under its error
-    assert np.mean(np.abs(err) <= 3 * sig) >= 0.98
-    assert est[-1].values["stw_long"] == pytest.approx(est[-1].values["stw"], abs=0.01)
+def _scored(v: Voyage, after: float = 1200.0) -> tuple[float, float, float]:
+    """RMSE of the estimate and of the naive SOG − forecast after `after` s, and the
+    share of the estimate's errors within ±3σ."""
+    ms = list(v.measurements())
+    est = [e for e in run(core(), ms) if e.t >= T0 + after]
+    tt = np.array([e.t for e in est])
+    truth = np.array([v.truth(t - T0) for t in tt])
+    err = np.array([e.values["stw"] for e in est]) - truth
+    sd = np.array([e.values["stw_std"] for e in est])
+    return (float(np.sqrt(np.mean(err**2))), float(np.sqrt(np.nanmean((naive(ms, tt) - truth) ** 2))),
+            float(np.mean(np.abs(err) <= 3 * sd)))
+
+
+def test_a_following_current_over_four_seeds_beats_the_naive_estimate_and_sigma_is_honest():
+    """A 1 m/s current from astern, forecasts σ 0.2 m/s every 20 minutes, 2 hours.
+    Measured (seeds 0–3): STW 0.180, 0.105, 0.064, 0.083 m/s against the naive 0.283,
+    0.171, 0.168, 0.145 (0.38–0.63 of it; RMS 0.116 against 0.199, 0.58); ±3σ 100 %.
+    Limits: each seed under 0.8 of its naive, the RMS under 0.7, ±3σ at least 98 %."""
+    runs = [_scored(Voyage(seed=seed, duration=2 * 3600)) for seed in range(4)]
+    for rmse, rmse_naive, cov3 in runs:
+        assert rmse <= 0.8 * rmse_naive, runs
+        assert cov3 >= 0.98, runs
+    rms = math.sqrt(np.mean([r[0] ** 2 for r in runs]))
+    rms_naive = math.sqrt(np.mean([r[1] ** 2 for r in runs]))
+    assert rms <= 0.7 * rms_naive, (rms, rms_naive)
+
+
+@pytest.mark.xfail(strict=True, reason="a current turning 40°/h across a straight course: the along-ship "
+                                       "current comes from the forecasts alone and the turning hypothesis "
+                                       "extrapolates their noise (seeds 0, 1: 1.37, 1.41 x the naive)")
+def test_a_current_turning_across_a_straight_course_is_no_worse_than_the_naive_estimate():
+    """1 m/s turning 40°/h, the ship on one course for 3 hours. Measured (seeds 0–5):
+    STW 0.51, 0.27, 0.13, 0.12, 0.22, 0.20 m/s against the naive 0.37, 0.19, 0.16, 0.15,
+    0.23, 0.30: two seeds worse than the naive, seed 0 inside ±3σ 75 % of the time (the
+    forecasts there say 1.24–1.64 m/s of a 1.0 m/s current and the turning hypothesis
+    runs their trend on). A current turning at a rate (its speed kept) rather than an
+    integrated random walk per axis is the model this needs."""
+    for seed in range(6):
+        rmse, rmse_naive, cov3 = _scored(Voyage(seed=seed, duration=3 * 3600, heading_deg=45.0,
+                                                current_set_deg=135.0, current_rotation_deg_h=40.0))
+        assert rmse <= rmse_naive and cov3 >= 0.97, (seed, rmse, rmse_naive, cov3)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

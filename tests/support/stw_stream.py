@@ -155,3 +155,25 @@ def run(core, measurements, tick_every: float = 1.0) -> list:
             next_tick += tick_every
         core.step(m)
     return out
+
+
+def naive(ms: list, times) -> np.ndarray:
+    """What a crew makes without a filter at each time: the latest SOG minus the latest
+    forecast's current along the latest COG (`edged score`'s naive row)."""
+    out, sog = [], None
+    cur = None
+    it = iter(sorted(ms, key=lambda m: m.t))
+    pending = next(it, None)
+    for t in times:
+        while pending is not None and pending.t <= t:
+            if pending.kind == "velocity_ground":
+                sog = (pending.values["sog"], pending.values["cog"])
+            elif pending.kind == "current":
+                cur = (pending.values["set"], pending.values["drift"])
+            pending = next(it, None)
+        if sog is None or cur is None:
+            out.append(math.nan)
+            continue
+        out.append(sog[0] - cur[1] * math.cos(cur[0] - sog[1]))
+    return np.array(out)
+
