@@ -50,7 +50,7 @@ MAX_ACCEL = 20.0
 #: The log is fitted only against an STW known better than this (m/s).
 DVL_FIT_MAX_STD = 0.5
 #: A position and a velocity this close in time (s) are one GNSS epoch.
-GNSS_EPOCH = 1.0
+GNSS_EPOCH = 0.5
 #: Kinds that move the ground filter: a gap in them is a gap in the data.
 GROUND = frozenset({"position", "velocity_ground"})
 #: Kinds whose NIS health watches (the log has its own watch: it never moves the estimate).
