@@ -6,14 +6,14 @@ information about u̇, v̇ and r, for a fifth of the filter's work (the default 
 then stays well under 1 % of a core live, `tests/bench/bench_manoeuvre.py`). A source
 is averaged only when its own interval (a running median-like estimate) is shorter
 than 2/3 of the block: a 10 Hz GNSS or gyro goes to the filter sample by sample, with
-no added delay. A block closes with the sample that fills it; its measurement is its
-value at that last sample's time, from the line through its readings with the slope
-weighed by how well the block knows it (`_close`; a compass: its circular mean at the
+no added delay. A block closes with the sample that fills it; its measurement is the
+value of the straight line fitted through its readings at that last sample's time
+(`_close` says why not the mean at the mean time; a compass: its circular mean at the
 mean time).
 
 A block also says how noisy its readings are: the scatter of its values about their
 straight-line fit in time (a ramp is the ship, not noise), times g, is the variance of
-its value when the readings are independent. That is known after the first block,
+the line's value when the readings are independent. That is known after the first block,
 where learning it from the innovations takes minutes (the filter cannot tell at first
 whether an innovation is sensor noise or motion). Readings that repeat exactly (a
 gateway's bursts, a sensor polled faster than it measures) are not independent: such
@@ -78,46 +78,39 @@ class Decimator:
     @staticmethod
     def _close(ts: list[float], zs: list[np.ndarray], angle_rows: tuple[int, ...]
                ) -> tuple[float, np.ndarray, float, np.ndarray | None]:
-        """The block's value at its last reading, from the line z = z̄ + b·(t − t̄)
-        through its readings, the slope shrunk by how well the block knows it.
+        """The block's least-squares line z = a + b·(t − t̄), valued at its last reading.
 
-        The block closes with its last reading, after the filter has taken the other
-        sensors up to then: its mean belongs to the mean time, 0.05 s earlier for a 50
-        Hz IMU, and applied now it was 0.45 °/s off in a yacht's wave yaw (10 °/s²), a
-        third of the IMU's blocks gated. Valued at the last reading the line is in
-        time, but the slope of five noisy readings is itself noisy: where the signal
-        hardly moves (a ship holding her course) extrapolating it would cost two thirds
-        of the averaging. So per row the slope is taken with the weight
-            w = b² / (b² + var_b),   var_b = s² / Σ(t − t̄)²
-        (s² the scatter about the line): the signal's change when it stands out of the
-        noise, the plain mean when it does not. The value
-            z = z̄ + w·b·(t_last − t̄)
-        has a mean squared error (the slope's noise let in, and its signal left out)
-        s²·g, g = 1/n + w·(t_last − t̄)²/Σ(t − t̄)², and is worth 1/g readings (1/max g
-        over the rows). Fewer than four readings give the last one;
-        repeated readings (a gateway's bursts, a coarse resolution) give no scatter to
-        prime the sensor's noise with; a compass (angles) keeps its circular mean at the
-        mean time."""
+        At the block's mean time the mean would be worth n readings, but the block closes
+        with its last reading, after the filter has taken the other sensors' readings up
+        to then: a 50 Hz IMU's mean of yaw rate stamped 0.05 s in the past, applied to a
+        filter already there, was 0.45 °/s off for a yacht's wave yaw (10 °/s²) and the
+        gate threw out a third of the IMU's blocks. Valued at the last reading the line
+        is in time and worth 1/g readings, g = 1/n + (t_last − t̄)²/Σ(t − t̄)² (about 2 of
+        5 or 6 evenly spaced ones)."""
         n = len(ts)
         t = np.array(ts)
         Z = np.array(zs)
         zm = Z.mean(axis=0)
         tm = float(t.mean())
-        for i in angle_rows:
-            zm[i] = wrap_2pi(math.atan2(float(np.sin(Z[:, i]).sum()), float(np.cos(Z[:, i]).sum())))
         if angle_rows:
+            # A compass faster than 10 Hz: its circular mean at the mean time (a heading
+            # moves with r, which the filter carries across the few hundredths of a
+            # second; a line through a gateway's bursts of readings 2 ms apart is not).
+            for i in angle_rows:
+                zm[i] = wrap_2pi(math.atan2(float(np.sin(Z[:, i]).sum()), float(np.cos(Z[:, i]).sum())))
             return tm, zm, float(n), None
         dtt = t - tm
         stt = float(dtt @ dtt)
-        if n < 4 or stt <= 0.0:  # too few to judge a slope by: the last reading, in time
+        lead = ts[-1] - tm
+        g = 1.0 / n + (lead * lead / stt if stt > 0.0 else 1.0)
+        if n < 3 or g >= 1.0:  # the line says no more than the last reading
             return ts[-1], zs[-1].copy(), 1.0, None
         D = Z - zm
         slope = (dtt @ D) / stt
-        res = D - np.outer(dtt, slope)
-        s2 = (res * res).sum(axis=0) / (n - 2)
-        var_b = s2 / stt
-        w = np.where(slope * slope + var_b > 0.0, slope * slope / np.maximum(slope * slope + var_b, 1e-300), 0.0)
-        lead = ts[-1] - tm
-        g = 1.0 / n + w * lead * lead / stt  # var + bias²: lead²·(w²·var_b + (1 − w)²·b²) = lead²·w·var_b
+        value = zm + slope * lead
+        scatter = None
         repeats = any(np.array_equal(zs[k], zs[k - 1]) for k in range(1, n))
-        return ts[-1], zm + w * slope * lead, float(1.0 / g.max()), None if repeats else s2 * g
+        if n >= 4 and not repeats:
+            res = D - np.outer(dtt, slope)
+            scatter = (res * res).sum(axis=0) / (n - 2) * g
+        return ts[-1], value, 1.0 / g, scatter
