@@ -567,7 +567,7 @@ class ManoeuvreCore:
             # which no sensor sees, then drifts); its sensors start conservative.
             noise.prime(scatter)
             if top is not None:
-                noise.ceiling(top / max(samples, 1.0))  # a block's value: worth `samples` readings
+                noise.ceiling(top / max(samples, 1))  # a mean of n independent readings
         gate = self.gates.get(key)
         if gate is None:
             gate = self.gates[key] = Gate()

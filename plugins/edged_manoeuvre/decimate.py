@@ -7,13 +7,11 @@ then stays well under 1 % of a core live, `tests/bench/bench_manoeuvre.py`). A s
 is averaged only when its own interval (a running median-like estimate) is shorter
 than 2/3 of the block: a 10 Hz GNSS or gyro goes to the filter sample by sample, with
 no added delay. A block closes with the sample that fills it; its measurement is the
-value of the straight line fitted through its readings at that last sample's time
-(`_close` says why not the mean at the mean time; a compass: its circular mean at the
-mean time).
+mean of its values (angles: the circular mean) at the mean of its times.
 
 A block also says how noisy its readings are: the scatter of its values about their
-straight-line fit in time (a ramp is the ship, not noise), times g, is the variance of
-the line's value when the readings are independent. That is known after the first block,
+straight-line fit in time (a ramp is the ship, not noise) divided by n is the variance
+of the mean when the readings are independent. That is known after the first block,
 where learning it from the innovations takes minutes (the filter cannot tell at first
 whether an innovation is sensor noise or motion). Readings that repeat exactly (a
 gateway's bursts, a sensor polled faster than it measures) are not independent: such
@@ -30,13 +28,13 @@ from .model import wrap_2pi
 
 
 class _Source:
-    __slots__ = ("last_t", "interval", "ts", "zs")
+    __slots__ = ("last_t", "interval", "t_sum", "z_sum", "s_sum", "c_sum", "n", "t0",
+                 "tt_sum", "tz_sum", "zz_sum", "last_z", "repeats")
 
     def __init__(self) -> None:
         self.last_t: float | None = None
         self.interval: float | None = None
-        self.ts: list[float] = []
-        self.zs: list[np.ndarray] = []
+        self.n = 0
 
 
 class Decimator:
@@ -45,13 +43,12 @@ class Decimator:
         self._src: dict[tuple[str, str], _Source] = {}
 
     def push(self, kind: str, source: str, t: float, z: np.ndarray,
-             angle_rows: tuple[int, ...] = ()) -> tuple[float, np.ndarray, float, np.ndarray | None] | None:
+             angle_rows: tuple[int, ...] = ()) -> tuple[float, np.ndarray, int] | None:
         """(t, z, samples, scatter) to update with now, or None while a block fills;
-        `samples` is how many single readings the block's value is worth (1/g below),
-        scatter the per-row variance of that value from the block's own readings
+        scatter is the per-row variance of the mean from the block's own readings
         (None for a single reading, angles, or repeated readings)."""
         if self.period <= 0.0:
-            return t, z, 1.0, None
+            return t, z, 1, None
         s = self._src.get((kind, source))
         if s is None:
             s = self._src[(kind, source)] = _Source()
@@ -60,57 +57,47 @@ class Decimator:
             if 0.0 < dt < 10.0:
                 s.interval = dt if s.interval is None else 0.9 * s.interval + 0.1 * dt
             elif dt < 0.0 or dt >= 10.0:  # out of order or a gap: start afresh
-                s.ts.clear()
-                s.zs.clear()
+                s.n = 0
         s.last_t = t
         if s.interval is None or s.interval > self.period * (2.0 / 3.0):
-            s.ts.clear()
-            s.zs.clear()
-            return t, z, 1.0, None
-        s.ts.append(t)
-        s.zs.append(np.asarray(z, dtype=float))
-        if t - s.ts[0] < self.period - 0.5 * s.interval:
+            s.n = 0
+            return t, z, 1, None
+        if s.n == 0:
+            s.t0, s.t_sum, s.z_sum = t, 0.0, np.zeros_like(z)
+            s.s_sum, s.c_sum = np.zeros_like(z), np.zeros_like(z)
+            s.tt_sum, s.tz_sum, s.zz_sum = 0.0, np.zeros_like(z), np.zeros_like(z)
+            s.last_z, s.repeats = None, 0
+        s.n += 1
+        s.t_sum += t
+        s.z_sum = s.z_sum + z
+        tr = t - s.t0
+        s.tt_sum += tr * tr
+        s.tz_sum = s.tz_sum + tr * z
+        s.zz_sum = s.zz_sum + z * z
+        if s.last_z is not None and np.array_equal(z, s.last_z):
+            s.repeats += 1
+        s.last_z = z
+        if angle_rows:
+            s.s_sum = s.s_sum + np.sin(z)
+            s.c_sum = s.c_sum + np.cos(z)
+        if t - s.t0 < self.period - 0.5 * s.interval:
             return None
-        out = self._close(s.ts, s.zs, angle_rows)
-        s.ts, s.zs = [], []
-        return out
+        n = s.n
+        zm = s.z_sum / n
+        for i in angle_rows:
+            zm[i] = wrap_2pi(math.atan2(s.s_sum[i], s.c_sum[i]))
+        s.n = 0
+        return s.t_sum / n, zm, n, self._scatter(s, n, zm, angle_rows)
 
     @staticmethod
-    def _close(ts: list[float], zs: list[np.ndarray], angle_rows: tuple[int, ...]
-               ) -> tuple[float, np.ndarray, float, np.ndarray | None]:
-        """The block's least-squares line z = a + b·(t − t̄), valued at its last reading.
-
-        At the block's mean time the mean would be worth n readings, but the block closes
-        with its last reading, after the filter has taken the other sensors' readings up
-        to then: a 50 Hz IMU's mean of yaw rate stamped 0.05 s in the past, applied to a
-        filter already there, was 0.45 °/s off for a yacht's wave yaw (10 °/s²) and the
-        gate threw out a third of the IMU's blocks. Valued at the last reading the line
-        is in time and worth 1/g readings, g = 1/n + (t_last − t̄)²/Σ(t − t̄)² (about 2 of
-        5 or 6 evenly spaced ones)."""
-        n = len(ts)
-        t = np.array(ts)
-        Z = np.array(zs)
-        zm = Z.mean(axis=0)
-        tm = float(t.mean())
-        if angle_rows:
-            # A compass faster than 10 Hz: its circular mean at the mean time (a heading
-            # moves with r, which the filter carries across the few hundredths of a
-            # second; a line through a gateway's bursts of readings 2 ms apart is not).
-            for i in angle_rows:
-                zm[i] = wrap_2pi(math.atan2(float(np.sin(Z[:, i]).sum()), float(np.cos(Z[:, i]).sum())))
-            return tm, zm, float(n), None
-        dtt = t - tm
-        stt = float(dtt @ dtt)
-        lead = ts[-1] - tm
-        g = 1.0 / n + (lead * lead / stt if stt > 0.0 else 1.0)
-        if n < 3 or g >= 1.0:  # the line says no more than the last reading
-            return ts[-1], zs[-1].copy(), 1.0, None
-        D = Z - zm
-        slope = (dtt @ D) / stt
-        value = zm + slope * lead
-        scatter = None
-        repeats = any(np.array_equal(zs[k], zs[k - 1]) for k in range(1, n))
-        if n >= 4 and not repeats:
-            res = D - np.outer(dtt, slope)
-            scatter = (res * res).sum(axis=0) / (n - 2) * g
-        return ts[-1], value, 1.0 / g, scatter
+    def _scatter(s: _Source, n: int, zm: np.ndarray, angle_rows: tuple[int, ...]) -> np.ndarray | None:
+        """Σ(z − a − b·t)² / (n − 2) / n per row: the residual variance of the block's
+        least-squares line, over n. None below 4 readings or with any exact repeat."""
+        if n < 4 or s.repeats or angle_rows:
+            return None
+        tm = (s.t_sum - n * s.t0) / n  # mean of the times since t0
+        stt = s.tt_sum - n * tm * tm
+        stz = s.tz_sum - n * tm * zm
+        szz = s.zz_sum - n * zm * zm
+        res = szz - (stz * stz / stt if stt > 0.0 else 0.0)
+        return np.maximum(res, 0.0) / ((n - 2) * n)

@@ -26,17 +26,16 @@ def _blocks(dec: Decimator, ts, zs, angle_rows=()):
     return out
 
 
-def test_a_blocks_scatter_is_the_variance_of_its_value():
-    """50 Hz readings of a ramp (a turn starting) with white noise σ: each block's value
-    is its line's at its last reading (in time: the ramp is not lagged), worth 1/g
-    readings; its scatter about the line, times g, averages σ²·g; the ramp adds nothing."""
+def test_a_blocks_scatter_is_the_variance_of_its_mean():
+    """50 Hz readings of a ramp (a turn starting) with white noise σ: each block's
+    scatter about its line, over n, averages σ²/n; the ramp itself adds nothing."""
     rng = np.random.default_rng(3)
     ts = np.arange(0.0, 60.0, 0.02)
     sigma = 1e-4
     zs = 2e-4 * ts + rng.normal(0.0, sigma, ts.size)  # a yaw acceleration of 0.01°/s²
     blocks = _blocks(Decimator(10.0), ts, zs)
     n = blocks[5][2]
-    assert n == pytest.approx(1.0 / (1.0 / 6.0 + 2.5**2 / 17.5))  # six readings, 0.00 … 0.10, the last valued
+    assert n == 6  # 0.10 s of readings: 0.00 … 0.10
     scatter = np.array([b[3][0] for b in blocks[5:]])
     assert scatter.mean() == pytest.approx(sigma**2 / n, rel=0.05)
     # and it is the variance of the mean: the means' errors scatter as much
@@ -80,8 +79,7 @@ def test_scatter_sets_the_noise_at_once_then_the_residuals_take_over():
 
 def test_a_fast_gyros_noise_is_known_within_seconds():
     """A 50 Hz rate gyro of σ 0.01°/s (configured as 0.05°/s): after 5 s the filter
-    uses the variance of its blocks' values (each the line through six readings at
-    the last of them), 0.01·√g °/s, within 15 %."""
+    uses the variance of its means of six readings, 0.01/√6 °/s, within 15 %."""
     voyage = Manoeuvre(duration=40.0, rate_sigma_deg=0.01, imu_hz=50.0)
     ms = list(voyage.measurements())
     t0 = ms[0].t
@@ -89,8 +87,7 @@ def test_a_fast_gyros_noise_is_known_within_seconds():
     core = ManoeuvreCore(ManoeuvreConfig(type="manoeuvre"))
     run(core, first)
     sigma = core.health()["sensor_sigma"]["yaw_rate/imu"][0]
-    g = 1.0 / 6.0 + 2.5**2 / 17.5
-    assert math.degrees(sigma) == pytest.approx(0.01 * math.sqrt(g), rel=0.15)
+    assert math.degrees(sigma) == pytest.approx(0.01 / math.sqrt(6), rel=0.15)
 
 
 def test_a_fibre_optic_gyro_is_followed_not_smoothed_into_the_model():
