@@ -16,8 +16,9 @@ well each predicts what is seen (interacting multiple models, Blom & Bar-Shalom 
     drifting: c(k+1) = c + T·ċ,  ċ(k+1) = ċ + w_ċ,   Q = q·[[T³/3, T²/2], [T²/2, T]] per axis,
               with q = q_slow (a current that changes over many hours)
     turning:  the same with q = q_fast (a tidal stream that turns within the hour)
-Mixing (each hypothesis switching to another with probability `switch`) happens at each
-forecast, the only moment the along-track current is observed; the mode probabilities
+In the drifting and turning hypotheses the current keeps its speed as it turns (a
+pseudo-measurement ĉ·ċ = 0 after each update, `_keep_speed`). Mixing (each hypothesis
+switching to another with probability `switch`) happens at each forecast, the only moment the along-track current is observed; the mode probabilities
 move with the forecast and the heading-course likelihoods.
     s(k+1) = φ·s + w_s,  φ = exp(−T/τ_s),  Q_s = σ_s²(1 − φ²)   (leeway persists for τ_s)
     k(k+1) = k + w_k,    Q_k = q_k·T           (a property of the hull and its loading)
@@ -46,6 +47,9 @@ N_STATE = 6
 #: Prior σ of k (m/rad): the pivot point of a 300 m ship lies up to ~100 m ahead of
 #: midships; a yacht's, a few metres.
 K_SIGMA = 150.0
+#: How fast a current's speed may change (m/s²): 1 m/s in an hour (a tidal stream from
+#: slack water to 3 kn in three hours changes by 0.5 m/s an hour).
+SPEED_RATE_SIGMA = 1.0 / 3600.0
 #: k's random walk (m²/rad²/s): 10 m an hour (loading, speed, depth change it slowly).
 Q_K = 10.0**2 / 3600.0
 _H_FORECAST = np.eye(N_STATE)[C]
@@ -194,6 +198,25 @@ class CurrentFilter:
         self.predict(t)
         self._mix()
         self._update_modes(np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
+        self._keep_speed()
+
+    def _keep_speed(self) -> None:
+        """A current that turns keeps its speed (a rotary tidal stream, an eddy): in the
+        hypotheses with a rate, the rate along the current's own direction, d|c|/dt =
+        ĉ·ċ, is observed as 0 within SPEED_RATE_SIGMA. What forecasts and heading −
+        course say of the current's turning then stays a turning: noisy forecasts
+        (σ 0.2 m/s every 20 minutes) do not make the current grow or fade at their
+        trend's rate between them, which had taken a 1.0 m/s current to 2 m/s."""
+        for m, (_, q) in enumerate(self.modes):
+            if q is None:
+                continue
+            y, P = self.y[m], self.P[m]
+            speed = math.hypot(y[0], y[1])
+            if speed < 0.1:
+                continue
+            H = np.zeros((1, N_STATE))
+            H[0, RATE] = y[C] / speed
+            self.y[m], self.P[m] = update(y, P, np.zeros(1), np.array([[SPEED_RATE_SIGMA**2]]), H)
 
     def adapt(self, nis_history: list[float], limit: float) -> None:
         """Covariance matching on the forecasts: a forecast's NIS has mean 2 (2 dof)
@@ -232,6 +255,7 @@ class CurrentFilter:
         held[C, 0] = ahead
         held[RATE, 1] = ahead
         self._update_modes(np.array([z]), np.array([[var]]), H, held)
+        self._keep_speed()
         return nis, True
 
     def mode_probabilities(self) -> dict[str, float]:
