@@ -120,7 +120,7 @@ SOG_OFF_SIGMAS = 6.0
 SOG_OFF_RUN = 5
 SOG_SIGMA = 0.2
 #: A GNSS position and velocity this close in time (s) are one epoch: both beyond their
-#: gates is one story, a manoeuvre the filter missed, not two outliers (`_gnss_gated`).
+#: gates is one story, a manoeuvre the filter missed, not two outliers (`_gnss_gated_both`).
 GNSS_EPOCH = 0.5
 #: Sensors whose noise is white, so that their readings' own roughness bounds it
 #: (`adaptive.Roughness`): rate gyros. Not a GNSS position (its error wanders over
