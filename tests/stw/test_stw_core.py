@@ -51,13 +51,13 @@ def _scored(v: Voyage, after: float = 1200.0) -> tuple[float, float, float]:
             float(np.mean(np.abs(err) <= 3 * sd)))
 
 
-def test_a_following_current_over_four_seeds_beats_the_naive_estimate_and_sigma_is_honest():
+def test_a_following_current_over_three_seeds_beats_the_naive_estimate_and_sigma_is_honest():
     """A 1 m/s current from astern, forecasts σ 0.2 m/s every 20 minutes, 2 hours.
-    Measured (seeds 0–3): STW 0.121, 0.079, 0.063, 0.088 m/s against the naive 0.283,
-    0.171, 0.168, 0.145 (0.38–0.61 of it; RMS 0.090 against 0.199, 0.45); ±3σ 100 %
-    (before a turning current kept its speed: 0.180, 0.105, 0.064, 0.083).
+    Measured (seeds 0–2): STW 0.121, 0.079, 0.063 m/s against the naive 0.283, 0.171,
+    0.168 (0.38–0.46 of it; RMS 0.091 against 0.214, 0.43); ±3σ 100 % (before a turning
+    current kept its speed: 0.180, 0.105, 0.064). Seed 3: 0.088 against 0.145 (0.61).
     Limits: each seed under 0.8 of its naive, the RMS under 0.6, ±3σ at least 98 %."""
-    runs = [_scored(Voyage(seed=seed, duration=2 * 3600)) for seed in range(4)]
+    runs = [_scored(Voyage(seed=seed, duration=2 * 3600)) for seed in range(3)]
     for rmse, rmse_naive, cov3 in runs:
         assert rmse <= 0.8 * rmse_naive, runs
         assert cov3 >= 0.98, runs
@@ -71,13 +71,15 @@ def test_a_current_turning_across_a_straight_course_is_no_worse_than_the_naive_e
     ship comes from the forecasts alone. Measured (seeds 0–5): STW 0.227, 0.112, 0.112,
     0.116, 0.163, 0.184 m/s against the naive 0.372, 0.190, 0.164, 0.154, 0.229, 0.298
     (0.59–0.75 of it; RMS 0.158 against 0.247, 0.64); ±3σ 97.2 % (seed 0) to 100 %.
+    The test runs seeds 0, 1 (the two that were worse than the naive) and 5: RMS 0.181
+    against 0.296, 0.61.
     Before a turning current kept its speed, the turning hypothesis ran the forecasts'
     noise on: 0.51 and 0.27 m/s on seeds 0 and 1 (1.37, 1.41 × the naive), 75 % within
     ±3σ on seed 0.
     Limits: each seed under 0.9 of the naive, the RMS under 0.75 of it; ±3σ at least
     95 % on each seed and 98 % over all."""
     runs = [_scored(Voyage(seed=seed, duration=3 * 3600, heading_deg=45.0, current_set_deg=135.0,
-                           current_rotation_deg_h=40.0)) for seed in range(6)]
+                           current_rotation_deg_h=40.0)) for seed in (0, 1, 5)]
     for rmse, rmse_naive, cov3 in runs:
         assert rmse <= 0.9 * rmse_naive and cov3 >= 0.95, runs
     rms = math.sqrt(np.mean([r[0] ** 2 for r in runs]))
