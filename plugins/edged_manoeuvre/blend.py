@@ -26,7 +26,8 @@ unconstrained minimum is w = G⁻¹1 / 1ᵀG⁻¹1; the best feasible one wins. 
 predictions made a second apart for a minute ahead are nearly one error: a 60-s
 prediction judged on its first 20 s of due errors took Aava's model at 80 s and made the
 whole log's 60-s prediction 1.05x dead reckoning; 0.99x with 2 horizons), dead
-reckoning alone is published, and so it is when the best combination's squared error over the window is not at least `margin`
+reckoning alone is published, and so it is when the best combination's squared error
+over the window is not at least `margin`
 (25 %) below dead reckoning's: the weights are fitted to the window and applied to the
 next minutes, and a small gain in the window is a loss as often as not after it
 (Aava's 30-s prediction: 1.05× dead reckoning with every gain taken, 1.01× with 25 %).

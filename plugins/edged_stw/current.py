@@ -18,7 +18,8 @@ well each predicts what is seen (interacting multiple models, Blom & Bar-Shalom 
     turning:  the same with q = q_fast (a tidal stream that turns within the hour)
 In the drifting and turning hypotheses the current keeps its speed as it turns (a
 pseudo-measurement ĉ·ċ = 0 after each update, `_keep_speed`). Mixing (each hypothesis
-switching to another with probability `switch`) happens at each forecast, the only moment the along-track current is observed; the mode probabilities
+switching to another with probability `switch`) happens at each forecast, the only
+moment the along-track current is observed; the mode probabilities
 move with the forecast and the heading-course likelihoods.
     s(k+1) = φ·s + w_s,  φ = exp(−T/τ_s),  Q_s = σ_s²(1 − φ²)   (leeway persists for τ_s)
     k(k+1) = k + w_k,    Q_k = q_k·T           (a property of the hull and its loading)
