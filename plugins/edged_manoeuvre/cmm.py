@@ -10,6 +10,8 @@ System model, eq. (3) and Table 1, with f^ox = v_n/|V| and f^oy = v_e/|V|:
     v̇_n = a_t f^ox − a_n f^oy        v̇_e = a_t f^oy + a_n f^ox
     ψ̇ = r    ṙ = 0    ȧ_t = ȧ_n = 0    (ḃ = 0)
 
+(with `yaw_tau` > 0, ṙ = r_dot, a state appended last: `model.YawAcceleration`)
+
 Heading and course are separate states: the drift angle ψ − χ is free.
 
 Measurement model, Table 2: the accelerometers read the inertial acceleration
@@ -29,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import BX, BY, PSI, R, H_state, h_state
+from .model import BX, BY, PSI, R, H_state, YawAcceleration, h_state
 
 NAMES = ("x", "y", "v_n", "v_e", "heading", "r", "a_t", "a_n", "b_x", "b_y")
 VN, VE, AT, AN = 2, 3, 6, 7
@@ -51,10 +53,12 @@ def _direction(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 class Cmm:
     name = "cmm"
 
-    def __init__(self, bias: bool = False) -> None:
-        self.n = 10 if bias else 8
+    def __init__(self, bias: bool = False, yaw_tau: float = 0.0) -> None:
+        base = 10 if bias else 8
         self.bias = bias
-        self.names = NAMES[: self.n]
+        self.yaw = YawAcceleration(yaw_tau, base)
+        self.n = base + self.yaw.size
+        self.names = NAMES[:base] + ("r_dot",) * self.yaw.size
 
     # -- system model -----------------------------------------------------------------
     def _accel_ne(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,6 +72,7 @@ class Cmm:
         d[..., 1] = x[..., VE]
         d[..., VN], d[..., VE] = self._accel_ne(x)
         d[..., PSI] = x[..., R]
+        self.yaw.f(x, d)
         return d
 
     def _accel_ne_jacobian(self, x: np.ndarray) -> np.ndarray:
@@ -94,6 +99,7 @@ class Cmm:
         A = np.zeros((self.n, self.n))
         A[0, VN] = A[1, VE] = A[PSI, R] = 1.0
         A[VN:VE + 1, :] += self._accel_ne_jacobian(x)
+        self.yaw.F(A)
         return A
 
     # -- measurement model ------------------------------------------------------------

@@ -34,6 +34,7 @@ DEFAULTS = {
         "substep": 0.05, "position_sigma": 1.5, "heading_sigma_deg": 0.2, "yaw_rate_sigma_deg": 0.05,
         "accel_sigma": 0.03, "q_position": 1e-4, "q_velocity": 1e-6, "q_heading": 1e-8,
         "q_yaw_accel": 1e-7, "q_jerk": 1e-4, "q_bias": 1e-8, "adapt_q": True, "adapt_r": True,
+        "yaw_accel_tau": 2.0, "q_yaw_jerk": 1e-6,
         "gate": True, "imu_bias": True, "init_window": 3.0, "max_rate": 10.0, "use_sog": True,
         "velocity_sigma": 0.1,
     },
@@ -42,6 +43,7 @@ DEFAULTS = {
         "yaw_rate_sigma_deg": 1e-3, "accel_sigma": PAPER_R["accel"],
         "q_position": PAPER_Q[0], "q_velocity": PAPER_Q[2], "q_heading": PAPER_Q[4],
         "q_yaw_accel": PAPER_Q[5], "q_jerk": PAPER_Q[6], "q_jerk_v": PAPER_Q[7], "q_bias": 1e-8,
+        "yaw_accel_tau": 0.0, "q_yaw_jerk": 0.0,
         "adapt_q": False, "adapt_r": False, "gate": False, "imu_bias": False, "init_window": 0.0,
         "max_rate": 0.0, "use_sog": False, "velocity_sigma": 0.1,
     },
@@ -97,6 +99,12 @@ class ManoeuvreConfig(EstimatorConfig):
     #: The sway acceleration's (a_v; a_n), when it differs (the paper's Table 3 does).
     q_jerk_v: float | None = None
     q_bias: float | None = Field(None, ge=0.0, le=1.0, validate_default=True)  # m²/s⁵
+    #: The yaw acceleration as a state (`model.YawAcceleration`): its correlation time
+    #: τ (s; 0: no such state, the paper's ṙ = 0) and the density of the white noise
+    #: driving it (rad²/s⁵; the NIS adaptation scales it from a launch to a tanker:
+    #: wave yaw of ±5° at 4 s is ~0.04, a tanker's rudder order ~1e-7).
+    yaw_accel_tau: float | None = Field(None, ge=0.0, le=60.0, validate_default=True)
+    q_yaw_jerk: float | None = Field(None, ge=0.0, le=10.0, validate_default=True)  # rad²/s⁵
 
     adapt_q: bool | None = Field(None, validate_default=True)
     adapt_r: bool | None = Field(None, validate_default=True)
@@ -129,7 +137,7 @@ class ManoeuvreConfig(EstimatorConfig):
     @field_validator(
         "substep", "position_sigma", "heading_sigma_deg", "yaw_rate_sigma_deg", "accel_sigma", "velocity_sigma",
         "use_sog", "q_position",
-        "q_velocity", "q_heading", "q_yaw_accel", "q_jerk", "q_bias", "adapt_q", "adapt_r", "gate", "imu_bias",
+        "q_velocity", "q_heading", "q_yaw_accel", "q_jerk", "q_bias", "yaw_accel_tau", "q_yaw_jerk", "adapt_q", "adapt_r", "gate", "imu_bias",
         "init_window", "max_rate",
     )
     @classmethod

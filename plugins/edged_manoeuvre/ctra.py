@@ -10,6 +10,9 @@ System model, eqs. (4)–(5) and Table 1:
     ṗ_n = u cos ψ − v sin ψ        ṗ_e = u sin ψ + v cos ψ
     u̇ = a_u    v̇ = a_v    ψ̇ = r    ṙ = 0    ȧ_u = ȧ_v = 0    (ḃ = 0)
 
+With `yaw_tau` > 0 the yaw acceleration is a state of its own, appended last
+(`model.YawAcceleration`): ṙ = r_dot, (d/dt) r_dot = −r_dot/τ.
+
 Measurement model, eqs. (10)–(12) and Table 2: positions, heading and yaw rate are
 states; the accelerometers read the body-axis acceleration, which holds the Coriolis
 terms (a body turning at r carries its velocity round with it):
@@ -26,7 +29,7 @@ import math
 
 import numpy as np
 
-from .model import BX, BY, PSI, R, H_state, h_state
+from .model import BX, BY, PSI, R, H_state, YawAcceleration, h_state
 
 NAMES = ("x", "y", "u", "v", "heading", "r", "a_u", "a_v", "b_x", "b_y")
 U, V, AU, AV = 2, 3, 6, 7
@@ -35,10 +38,12 @@ U, V, AU, AV = 2, 3, 6, 7
 class Ctra:
     name = "ctra"
 
-    def __init__(self, bias: bool = False) -> None:
-        self.n = 10 if bias else 8
+    def __init__(self, bias: bool = False, yaw_tau: float = 0.0) -> None:
+        base = 10 if bias else 8
         self.bias = bias
-        self.names = NAMES[: self.n]
+        self.yaw = YawAcceleration(yaw_tau, base)
+        self.n = base + self.yaw.size
+        self.names = NAMES[:base] + ("r_dot",) * self.yaw.size
 
     # -- system model (Table 1) ------------------------------------------------------
     def f(self, x: np.ndarray) -> np.ndarray:
@@ -49,6 +54,7 @@ class Ctra:
             d = np.zeros(self.n)
             d[0], d[1] = u * c - v * s, u * s + v * c  # eqs. (4), (5)
             d[U], d[V], d[PSI] = x[AU], x[AV], x[R]
+            self.yaw.f(x, d)
             return d
         u, v, psi = x[..., U], x[..., V], x[..., PSI]
         c, s = np.cos(psi), np.sin(psi)
@@ -58,6 +64,7 @@ class Ctra:
         d[..., U] = x[..., AU]
         d[..., V] = x[..., AV]
         d[..., PSI] = x[..., R]
+        self.yaw.f(x, d)
         return d
 
     def F(self, x: np.ndarray) -> np.ndarray:
@@ -68,6 +75,7 @@ class Ctra:
         A[0, U], A[0, V], A[0, PSI] = c, -s, -u * s - v * c
         A[1, U], A[1, V], A[1, PSI] = s, c, u * c - v * s
         A[U, AU] = A[V, AV] = A[PSI, R] = 1.0
+        self.yaw.F(A)
         return A
 
     # -- measurement model (Table 2), one sensor's rows ----------------------------------

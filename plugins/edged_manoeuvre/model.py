@@ -34,6 +34,42 @@ PSI, R = 4, 5
 BX, BY = 8, 9
 
 
+class YawAcceleration:
+    """ṙ as a state of its own, a first-order Gauss–Markov process (Singer's model for
+    the yaw acceleration), appended after the model's other states:
+
+        ψ̇ = r        ṙ = r_dot        (d/dt) r_dot = −r_dot / τ + w
+
+    The paper's ṙ = 0 holds r between readings: a yacht yawing ±7 °/s in a seaway
+    changes r by ~1 °/s in the 0.1 s between two gyro readings, more than a gyro's own
+    error a hundredfold, and the filter's r (and the heading it integrates) then lags
+    the gyro. With r_dot the model carries the wave's yaw between readings; τ (a few
+    seconds) keeps it from carrying it minutes ahead. τ = 0: no such state (the paper).
+    """
+
+    def __init__(self, tau: float, first: int) -> None:
+        self.tau = float(tau)
+        #: The index of r_dot in the state (None: the model has none).
+        self.index: int | None = first if tau > 0.0 else None
+
+    @property
+    def size(self) -> int:
+        return 0 if self.index is None else 1
+
+    def f(self, x: np.ndarray, d: np.ndarray) -> None:
+        """Adds ψ̇'s companion rows to d = f(x): ṙ = r_dot, (d/dt) r_dot = −r_dot/τ."""
+        i = self.index
+        if i is not None:
+            d[..., R] = x[..., i]
+            d[..., i] = -x[..., i] / self.tau
+
+    def F(self, A: np.ndarray) -> None:
+        i = self.index
+        if i is not None:
+            A[R, i] = 1.0
+            A[i, i] = -1.0 / self.tau
+
+
 def wrap_pi(a: np.ndarray | float) -> np.ndarray | float:
     """An angle or angle difference in (−π, π]."""
     return math.pi - (math.pi - a) % TWO_PI

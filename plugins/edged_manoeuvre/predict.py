@@ -5,7 +5,8 @@ The state and its covariance are propagated with the filter's own model (RK4, th
 linearised transition for P, the process noise density Q_c) to each horizon. Holding
 the accelerations constant for minutes diverges (a ship does not keep accelerating):
 in the predictor they decay as a_i(t) = a_i(0)·e^(−t/τ) (ESTIMATORS.md §2), while the
-turn rate is held: a ship on a constant rudder settles into a steady turn.
+turn rate is held: a ship on a constant rudder settles into a steady turn (the yaw
+acceleration state, when the model has one, starts the run at 0: it is the wave's).
 
 The 1-σ ellipse of each predicted position comes from its 2 × 2 covariance: the axes
 are the square roots of its eigenvalues, the angle the major axis's direction from
@@ -63,6 +64,9 @@ class Predictor:
         t = 0.0
         x = np.array(x, dtype=float)
         P = np.array(P, dtype=float)
+        i = self.model.yaw.index
+        if i is not None:
+            x[i] = 0.0  # the turn rate held, not the wave's yaw acceleration carried on
         for hz in self.horizons:
             while t < hz - 1e-9:
                 # 10 s steps to 30 s, then 20 s: RK4's relative error at 20 s and

@@ -43,6 +43,9 @@ class Manoeuvre:
     gnss_hz: float = 10.0
     heading_hz: float = 10.0
     imu_hz: float = 50.0
+    #: The hull's wave yaw over the steered heading: (amplitude °, period s); ψ gains
+    #: A sin(2πt/T) and r its derivative (a yacht in a seaway: ±5° at 3–6 s).
+    wave_yaw: tuple[float, float] = (0.0, 10.0)
     truth: list[tuple[float, float, float, float, float, float, float, float, float]] = field(default_factory=list)
 
     def measurements(self) -> Iterator[Measurement]:
@@ -68,10 +71,13 @@ class Manoeuvre:
                 _, r_deg, au, av = orders.pop(0)
                 r = math.radians(r_deg)
             t = T0 + t_rel
+            # the hull: the steered heading plus the wave's yaw
+            w_amp, w = math.radians(self.wave_yaw[0]), 2.0 * math.pi / self.wave_yaw[1]
+            psi_h, r_h = psi + w_amp * math.sin(w * t_rel), r + w_amp * w * math.cos(w * t_rel)
             # the rotated world: positions and angles turned by `rotate`
             nr, er = cr * n - sr * e, sr * n + cr * e
-            psr = (psi + rot) % (2 * math.pi)
-            self.truth.append((t, nr, er, u, v, psr, r, au, av))
+            psr = (psi_h + rot) % (2 * math.pi)
+            self.truth.append((t, nr, er, u, v, psr, r_h, au, av))
             if k % every["gnss"] == 0:
                 dn, de = rng.normal(0, self.position_sigma, 2)  # turned with the world too
                 lat, lon = plane.to_geodetic(nr + cr * dn - sr * de, er + sr * dn + cr * de)
@@ -80,14 +86,15 @@ class Manoeuvre:
                 h = (psr + math.radians(rng.normal(0, self.heading_sigma_deg))) % (2 * math.pi)
                 yield Measurement("heading", "gyro", t, {"heading": h})
             if k % every["imu"] == 0:
-                yield Measurement("yaw_rate", "imu", t, {"r": r + math.radians(rng.normal(0, self.rate_sigma_deg))})
-                ax = au - v * r + self.accel_bias[0] + rng.normal(0, self.accel_sigma)
-                ay = av + u * r + self.accel_bias[1] + rng.normal(0, self.accel_sigma)
+                yield Measurement("yaw_rate", "imu", t, {"r": r_h + math.radians(rng.normal(0, self.rate_sigma_deg))})
+                ax = au - v * r_h + self.accel_bias[0] + rng.normal(0, self.accel_sigma)
+                ay = av + u * r_h + self.accel_bias[1] + rng.normal(0, self.accel_sigma)
                 yield Measurement("accel_body", "imu", t, {"ax": ax, "ay": ay, "az": 0.0})
             # exact CTRA step: body velocities change linearly, the heading turns
-            c0, s0 = math.cos(psi), math.sin(psi)
+            c0, s0 = math.cos(psi_h), math.sin(psi_h)
             psi1 = psi + r * dt
-            c1, s1 = math.cos(psi1), math.sin(psi1)
+            psi1_h = psi1 + w_amp * math.sin(w * (t_rel + dt))
+            c1, s1 = math.cos(psi1_h), math.sin(psi1_h)
             u1, v1 = u + au * dt, v + av * dt
             n += 0.5 * dt * ((u * c0 - v * s0) + (u1 * c1 - v1 * s1))
             e += 0.5 * dt * ((u * s0 + v * c0) + (u1 * s1 + v1 * c1))
