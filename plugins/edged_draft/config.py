@@ -31,8 +31,9 @@ class DraftConfig(EstimatorConfig):
     sensor_sigma: float = Field(0.1, gt=0.0, le=10.0)
     #: Learn each mark's noise from its innovations.
     adapt_r: bool = True
-    #: Readings outside this range (m) are impossible for the vessel: rejected.
-    min_draft: float = Field(0.0, ge=0.0, le=70.0)
+    #: A reading outside [min_draft, max_draft] m is impossible (counted `range`). Not
+    #: 0: a mark reading 0 is a sensor in air or unpowered, not a hull afloat.
+    min_draft: float = Field(0.01, ge=0.0, le=70.0)
     max_draft: float = Field(30.0, gt=0.0, le=70.0)
     #: A mark silent this long (s of data time) is out until it speaks again.
     silence: float = Field(1.0, gt=0.0, le=3600.0)

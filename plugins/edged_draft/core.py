@@ -142,6 +142,10 @@ class DraftCore:
             return
         st.range_in_row = 0
         z = float(z)
+        if st.frozen(t, z):  # a sensor at sea never reads one value exactly, reading after reading
+            self.rejected[f"{name}.frozen"] += 1
+            st.out("frozen")
+            return
         f = self.filters.get(name)
         if f is not None and t < f.t - 1e-9:
             self.rejected[f"{name}.late"] += 1
@@ -454,4 +458,17 @@ class DraftCore:
                                             if isinstance(g, WaveMark)}
         out["depth"] = self._depth is not None
         out["stw"] = self._stw is not None
+        out["problems"] = self.problems()
         return out
+
+    def problems(self) -> list[str]:
+        """What makes the worker not `ok` (the host copies it to health): every mark
+        out, for a reason other than the start (six marks reading 0 published six
+        means of 0.0 flagged `ok: false` while the worker said `ok: true`)."""
+        states = self.state
+        if not states or any(st.ok for st in states.values()):
+            return []
+        if all(st.reason == "starting" for st in states.values()):
+            return []
+        why = ", ".join(f"{m}: {st.reason}" for m, st in states.items())
+        return [f"every draft mark is out ({why}): no mean draft, trim, list or UKC"]

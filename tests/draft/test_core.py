@@ -204,3 +204,21 @@ def test_the_mean_draft_follows_a_squat_ramp_through_the_speed():
     # the 5 cm per (m/s)² the hull sank by, learned from Barrass's 6 cm (C_b 0.8, S 0.25)
     assert all(abs(k - 0.05) < 0.005 for k in core.health()["squat_coefficient"].values())
     assert with_speed < 0.03
+
+
+def test_every_mark_out_makes_the_estimator_not_ok_and_says_why():
+    """Six marks reading 0 (raw 0 on every frame: sensors in air or unpowered): no
+    derived value, each reading counted `range`, and health's `problems` (which makes
+    the worker `ok: false`) names each mark and its reason; with the marks sound again
+    the problem is gone."""
+    zero = {m: (lambda t, v, s: (0.0, s) if t < 40.0 else (v, s)) for m in MARKS}
+    core = _core(settle=5.0)
+    hull = Hull(duration=80.0, faults=zero)
+    ms = list(hull.measurements())
+    out = run(core, [m for m in ms if m.t < T0 + 30.0])
+    assert all(e.values["mean_draft"] is None for e in out)
+    assert core.health()["rejected"]["fore_port.range"] > 1000
+    problems = core.health()["problems"]
+    assert len(problems) == 1 and all(m in problems[0] for m in MARKS), problems
+    run(core, [m for m in ms if m.t >= T0 + 30.0])
+    assert core.health()["problems"] == []
