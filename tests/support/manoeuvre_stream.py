@@ -46,6 +46,10 @@ class Manoeuvre:
     #: The hull's wave yaw over the steered heading: (amplitude °, period s); ψ gains
     #: A sin(2πt/T) and r its derivative (a yacht in a seaway: ±5° at 3–6 s).
     wave_yaw: tuple[float, float] = (0.0, 10.0)
+    #: The wave's yaw turns the hull about a steady track (a yacht's: the velocity over
+    #: ground does not swing with the bow), not the track with it: the body velocities
+    #: then swing, and the accelerometers read their rates.
+    steady_course: bool = False
     truth: list[tuple[float, float, float, float, float, float, float, float, float]] = field(default_factory=list)
 
     def measurements(self) -> Iterator[Measurement]:
@@ -73,11 +77,18 @@ class Manoeuvre:
             t = T0 + t_rel
             # the hull: the steered heading plus the wave's yaw
             w_amp, w = math.radians(self.wave_yaw[0]), 2.0 * math.pi / self.wave_yaw[1]
-            psi_h, r_h = psi + w_amp * math.sin(w * t_rel), r + w_amp * w * math.cos(w * t_rel)
+            wy, wr = w_amp * math.sin(w * t_rel), w_amp * w * math.cos(w * t_rel)
+            psi_h, r_h = psi + wy, r + wr
+            ub, vb, aub, avb = u, v, au, av  # the body axes' velocities and their rates
+            if self.steady_course:  # the track's velocity seen from the yawing hull
+                c, s_ = math.cos(wy), math.sin(wy)
+                ub, vb = c * u + s_ * v, -s_ * u + c * v
+                aub = c * au + s_ * av + wr * vb
+                avb = -s_ * au + c * av - wr * ub
             # the rotated world: positions and angles turned by `rotate`
             nr, er = cr * n - sr * e, sr * n + cr * e
             psr = (psi_h + rot) % (2 * math.pi)
-            self.truth.append((t, nr, er, u, v, psr, r_h, au, av))
+            self.truth.append((t, nr, er, ub, vb, psr, r_h, aub, avb))
             if k % every["gnss"] == 0:
                 dn, de = rng.normal(0, self.position_sigma, 2)  # turned with the world too
                 lat, lon = plane.to_geodetic(nr + cr * dn - sr * de, er + sr * dn + cr * de)
@@ -87,13 +98,16 @@ class Manoeuvre:
                 yield Measurement("heading", "gyro", t, {"heading": h})
             if k % every["imu"] == 0:
                 yield Measurement("yaw_rate", "imu", t, {"r": r_h + math.radians(rng.normal(0, self.rate_sigma_deg))})
-                ax = au - v * r_h + self.accel_bias[0] + rng.normal(0, self.accel_sigma)
-                ay = av + u * r_h + self.accel_bias[1] + rng.normal(0, self.accel_sigma)
+                ax = aub - vb * r_h + self.accel_bias[0] + rng.normal(0, self.accel_sigma)
+                ay = avb + ub * r_h + self.accel_bias[1] + rng.normal(0, self.accel_sigma)
                 yield Measurement("accel_body", "imu", t, {"ax": ax, "ay": ay, "az": 0.0})
             # exact CTRA step: body velocities change linearly, the heading turns
             c0, s0 = math.cos(psi_h), math.sin(psi_h)
             psi1 = psi + r * dt
             psi1_h = psi1 + w_amp * math.sin(w * (t_rel + dt))
+            if self.steady_course:  # the track turns with the steered heading only
+                c0, s0 = math.cos(psi), math.sin(psi)
+                psi1_h = psi1
             c1, s1 = math.cos(psi1_h), math.sin(psi1_h)
             u1, v1 = u + au * dt, v + av * dt
             n += 0.5 * dt * ((u * c0 - v * s0) + (u1 * c1 - v1 * s1))
