@@ -463,7 +463,7 @@ def _kernel() -> Any:
     if _KERNEL is False:
         try:
             from . import kernel
-        except ImportError:  # pragma: no cover - numba is a dependency; numpy without it
+        except ImportError:  # numba is the optional extra `fast`: numpy without it
             kernel = None
         _KERNEL = kernel
     return _KERNEL

@@ -152,11 +152,17 @@ def main() -> None:
     ap.add_argument("--hours", type=float, default=1.0, help="replay length for part 2 (0 skips it)")
     ap.add_argument("--mode", choices=("adaptive", "paper"), default="adaptive")
     ap.add_argument("--no-compare", action="store_true", help="no replay with the STW estimator alone")
+    ap.add_argument("--numpy", action="store_true",
+                    help="part 1 on the numpy path (the default install's: numba is the optional extra `fast`)")
     ap.add_argument("--out", type=Path, default=None)
     a = ap.parse_args()
     start = time.perf_counter()
     out = a.out or Path(tempfile.mkdtemp(prefix="bench_draft-"))
     out.mkdir(parents=True, exist_ok=True)
+    if a.numpy:
+        from edged_draft import waves
+        waves._KERNEL = None  # as when numba is not installed
+        print("part 1 on the numpy path (numba not used)")
     bench_core(out, a.seconds, a.runs, a.mode)
     if a.hours > 0:
         bench_replay(out, a.hours, not a.no_compare)

@@ -36,3 +36,23 @@ def test_demo_reads_both_inputs_and_records(tmp_path):
     # every estimator has its inputs: the draft marks too
     assert any(t.startswith("/meas/draft/") for t in topics), topics
     assert {"/est/stw", "/est/manoeuvre", "/est/draft"} <= set(topics), topics
+
+
+def test_the_demo_has_a_mean_draft_trim_and_list_from_its_fifth_second(tmp_path):
+    """Issue 31: the marks' rhythm was taken from the first frames' 0.1–1.8 ms, every
+    mark was out for `gaps` for ~20 s, and a 30-s demo published no mean draft."""
+    args = build_parser().parse_args(
+        ["demo", "--duration", "10", "--no-zenoh", "--record-dir", str(tmp_path / "rec")]
+    )
+    assert main(args, out=io.StringIO()) == 0
+    files = sorted((tmp_path / "rec").glob("edged-*.mcap"))
+    drafts, first = [], None
+    with open(files[-1], "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            first = message.log_time if first is None else min(first, message.log_time)
+            if channel.topic == "/est/draft":
+                drafts.append((message.log_time, json.loads(message.data)))
+    late = [d for at, d in drafts if (at - first) / 1e9 >= 5.0]
+    assert late, f"{len(drafts)} draft estimates, none after the fifth second"
+    for d in late:
+        assert d["mean_draft"] is not None and d["trim"] is not None and d["list"] is not None, d
