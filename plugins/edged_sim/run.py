@@ -48,7 +48,7 @@ class Simulation:
         # The wave yaw draws from a stream of its own: scenarios without it keep their bytes.
         yaw = None if sc.wave_yaw is None else sc.wave_yaw.components(np.random.default_rng([seed, 2]))
         self.truth = TruthModel(sc.ship, sc.current, sc.water, sc.loading, sc.waves.components(env_rng), self.frame,
-                                sc.start_epoch, yaw)
+                                sc.start_epoch, yaw, marks_read_sea=sc.marks_read_sea)
         self.sensor_rngs = [s.rng(seed) for s in sc.sensors]
         self.spell_rngs = [s.spell_rng(seed) if s.dropout_spells else None for s in sc.sensors]
         self.outputs = [[output(k) for k in s.outputs] for s in sc.sensors]

@@ -34,6 +34,9 @@ class Scenario:
     can_channel: str = "can0"
     #: The hull's wave-frequency yaw on top of the manoeuvring yaw (small craft); None: none.
     wave_yaw: WaveYaw | None = None
+    #: The draft marks read the sea at their own positions as well as the hull's motion
+    #: (`waves.sea_at`): each mark its own phase of a sea travelling along the hull.
+    marks_read_sea: bool = False
 
     def without_errors(self) -> "Scenario":
         """Perfect sensors and no faults: the logs then carry the truth to the formats'

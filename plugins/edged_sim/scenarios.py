@@ -136,6 +136,18 @@ SCENARIOS: dict[str, Scenario] = {
                         "losing half its frames, 120 s each",
             sensors=tuple(_faulty_mark(s) for s in _HARBOUR.sensors),
         ),
+        replace(
+            _HARBOUR, name="draft-travelling", duration_s=1200.0,
+            description="draft-harbour's first 20 min, the marks reading the sea at their own places: "
+                        "its 12-s waves are the hull's length (225 m) and come 30° off the stern",
+            marks_read_sea=True,
+        ),
+        replace(
+            _HARBOUR, name="draft-short-crested", duration_s=1200.0,
+            description="draft-harbour's first 20 min in a short-crested sea (JONSWAP Hs 1 m, Tp 10 s, "
+                        "spread 30°, from abeam to port), the marks reading it at their own places",
+            waves=JonswapWaves(1.0, 10.0, from_deg=270.0, spread_deg=30.0), marks_read_sea=True,
+        ),
         Scenario(
             "draft-squat", "Channel transit, C_b 0.8, 10 → 15 kn in 2 min (seed 003 §7.4)", 300.0,
             SQUAT_SHIP, Manoeuvre(10.0, (Step(at_s=50.0, speed_kn=15.0, ramp_s=120.0),)), 90.0,

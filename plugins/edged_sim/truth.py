@@ -15,7 +15,7 @@ from .dynamics import Trace
 from .environment import Current, Water, barrass_squat
 from .geo import LocalFrame, wrap_2pi
 from .ship import ShipParticulars
-from .waves import Components, YawComponents, encounter_frequency, response
+from .waves import Components, YawComponents, encounter_frequency, response, sea_at
 
 #: Draft marks in DBC order (ids 0x310..0x315): (name, x as fraction of L, y side).
 MARKS: tuple[tuple[str, float, float], ...] = (
@@ -77,6 +77,9 @@ class TruthModel:
     epoch: float
     #: The hull's wave-frequency yaw (`waves.WaveYaw`), None for none.
     yaw: YawComponents | None = None
+    #: The draft marks read the sea at their own positions (a pressure sensor on a hull:
+    #: its depth below the local surface), not only the hull's rigid motion.
+    marks_read_sea: bool = False
     _disp: tuple[float, float] = (0.0, 0.0)
     _phase: np.ndarray | None = None
     _chunk: dict = field(default_factory=dict)
@@ -161,6 +164,8 @@ class TruthModel:
                 mean = mean + lo.deflection
             out[f"draft_{name}_mean"] = mean
             out[f"draft_{name}"] = mean + mo.heave - x * mo.pitch + y * mo.roll
+            if self.marks_read_sea:
+                out[f"draft_{name}"] = out[f"draft_{name}"] + sea_at(self.waves, wave_phase, psi, x, y)
             means.append(mean)
         fore = 0.5 * (out["draft_fore_port_mean"] + out["draft_fore_stbd_mean"])
         aft = 0.5 * (out["draft_aft_port_mean"] + out["draft_aft_stbd_mean"])

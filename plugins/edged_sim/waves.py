@@ -66,6 +66,9 @@ class JonswapWaves:
     from_deg: float = 0.0
     gamma: float = 3.3
     n: int = 40
+    #: Short-crested: each component's direction drawn about the mean with this spread
+    #: (deg, 1σ of a normal, the cos-2s spreading's width; 0: long-crested).
+    spread_deg: float = 0.0
 
     def components(self, rng: np.random.Generator) -> Components:
         wp = 2.0 * np.pi / self.tp
@@ -78,7 +81,10 @@ class JonswapWaves:
         s = shape * (self.hs / 4.0) ** 2 / m0  # Hs = 4·sqrt(m0)
         amp = np.sqrt(2.0 * s * dw)
         toward = np.full(self.n, np.radians(self.from_deg + 180.0))
-        return Components(amp, w, _deep(w), toward, rng.uniform(0, 2 * np.pi, self.n))
+        phase = rng.uniform(0, 2 * np.pi, self.n)
+        if self.spread_deg > 0.0:  # drawn after the phases: a long-crested sea keeps its bytes
+            toward = toward + np.radians(self.spread_deg) * rng.standard_normal(self.n)
+        return Components(amp, w, _deep(w), toward, phase)
 
 
 def _sinc(x: np.ndarray) -> np.ndarray:
@@ -146,6 +152,19 @@ def response(
         roll_rate=(iw * roll_c).real.sum(axis=1),
         heave_acc=(iw * iw * heave_c).real.sum(axis=1),
     )
+
+
+def sea_at(comp: Components, phase: np.ndarray, psi: np.ndarray, x: float, y: float) -> np.ndarray:
+    """The sea's elevation (m, + up) at a point x m ahead of and y m to starboard of the
+    reference point, per sample: each component's phase there is the reference point's
+    less k·(x cos μ + y sin μ) (the crest reaches a point down its path later). A long
+    hull in waves of its own length meets them with a phase at each mark: the marks
+    then read different seas, which no rigid heave, pitch and roll can give."""
+    if comp.size == 0:
+        return np.zeros(psi.size)
+    mu = comp.toward[None, :] - psi[:, None]
+    shift = comp.k[None, :] * (x * np.cos(mu) + y * np.sin(mu))
+    return (comp.amplitude[None, :] * np.cos(phase - shift)).sum(axis=1)
 
 
 @dataclass(frozen=True)

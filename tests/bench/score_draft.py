@@ -7,6 +7,9 @@ Scenarios (`--scenarios`, default all):
 - `draft-harbour`, `draft-squat`: the simulator's scenarios as they are;
 - `harbour-jonswap`, `squat-jonswap`: the same with `--waves jonswap:1.13,12` and
   `jonswap:1.13,10` (Hs 1.13 m = 2√2 × 0.4 m: the regular seas' energy, irregular);
+- `draft-travelling`, `draft-short-crested` (issue 31): the marks read the sea at their
+  own places, a regular sea of the hull's length 30° off the stern, and a short-crested
+  JONSWAP sea (Hs 1 m, Tp 10 s, 30° spread) from abeam;
 - `draft-faulty-mark`: the fore_port mark fails five ways, 120 s each (meta.json
   `faults.windows`), beside a clean `draft-harbour` of the same seed and 1200 s.
 
@@ -76,8 +79,11 @@ RUNS: dict[str, tuple[str, str | None, float | None]] = {
     "squat-jonswap": ("draft-squat", "jonswap:1.13,10", None),
     "draft-faulty-mark": ("draft-faulty-mark", None, None),
     "harbour-1200": ("draft-harbour", None, 1200.0),  # the faulty run's clean twin
+    "draft-travelling": ("draft-travelling", None, None),
+    "draft-short-crested": ("draft-short-crested", None, None),
 }
-SCENARIOS = ("draft-harbour", "draft-squat", "harbour-jonswap", "squat-jonswap", "draft-faulty-mark")
+SCENARIOS = ("draft-harbour", "draft-squat", "harbour-jonswap", "squat-jonswap", "draft-faulty-mark",
+             "draft-travelling", "draft-short-crested")
 #: Each fault window of draft-faulty-mark is followed by this much of recovery (s).
 AFTER = 90.0
 

@@ -33,6 +33,11 @@ class Hull:
     pitch: float = 0.25  # at the fore/aft marks
     roll: float = 0.1  # at the side
     period: float = 12.0
+    #: A sea travelling along the hull that the marks read at their own places: its
+    #: amplitude (m) and its phase lag from one station to the next (rad: π/2, a wave of
+    #: twice the fore-to-aft distance), which no rigid heave, pitch and roll can give.
+    sea: float = 0.0
+    sea_lag: float = math.pi / 2.0
     #: mark -> function(t, value, status) -> (value or None to drop, status)
     faults: dict[str, Callable[[float, float, int], tuple[float | None, int]]] = field(default_factory=dict)
 
@@ -45,7 +50,7 @@ class Hull:
         x, y = GEOMETRY[m]
         w = 2.0 * math.pi / self.period
         return (self.heave * np.sin(w * t) + x * self.pitch * np.sin(w * t + 1.0)
-                + y * self.roll * np.sin(w * t + 2.0))
+                + y * self.roll * np.sin(w * t + 2.0) + self.sea * np.sin(w * t - x * self.sea_lag + 0.3 * y))
 
     def times(self) -> np.ndarray:
         return np.arange(0.0, self.duration, 1.0 / self.rate)
