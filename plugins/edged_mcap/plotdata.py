@@ -187,6 +187,21 @@ def _take(data: PlotData, family: str, src: str, t: float, flat: dict[str, Any])
             data.series[panel].setdefault(label.format(src=src), Series()).add(t, v, scale)
 
 
+#: The draft marks in the order the "marks out" panel draws them, bottom to top.
+MARK_ORDER = ("aft_stbd", "aft_port", "mid_stbd", "mid_port", "fore_stbd", "fore_port")
+
+
+def _marks_out(data: PlotData, t: float, marks: Any) -> None:
+    """Each mark an estimate flags `ok: false`, at its row (1..6, `MARK_ORDER`): the
+    "marks out" panel."""
+    if not isinstance(marks, dict):
+        return
+    for i, name in enumerate(MARK_ORDER):
+        m = marks.get(name)
+        if isinstance(m, dict) and m.get("ok") is False:
+            data.series["marks_out"].setdefault(name, Series()).add(t, i + 1)
+
+
 def _track(data: PlotData, label: str, payload: dict[str, Any]) -> None:
     lat, lon = _num(payload.get("lat")), _num(payload.get("lon"))
     if lat is not None and lon is not None and abs(lat) <= 90.0 and abs(lon) <= 180.0:
@@ -242,6 +257,8 @@ def collect(path: Path) -> PlotData:
                 _track(data, src, payload)
             elif family == "est/manoeuvre":
                 _track(data, "estimate", payload)
+            if family == "est/draft":
+                _marks_out(data, t, payload.get("marks"))
             if family == _RAW_DRAFT:
                 raw_drafts.setdefault(str(payload.get("mark", src)), Series()).add(t, payload.get("draft"))
             else:

@@ -139,3 +139,40 @@ def test_plot_data_uses_raw_drafts_without_an_estimate_and_a_local_metric_track(
     xs, ys = local_xy([60.0, 60.001], [23.0, 23.002], 60.0, 23.0)
     assert ys[1] == pytest.approx(111.2, abs=0.1)  # 0.001° of latitude
     assert xs[1] == pytest.approx(2 * 111.2 * 0.5, abs=0.1)  # cos 60° = 0.5
+
+
+def test_plot_data_has_the_marks_each_draft_estimate_left_out(make_rig, tmp_path):
+    """Issue 31: the draft panel shows the mean draft, trim, list and which marks were out."""
+    from edged_mcap.plotdata import MARK_ORDER, collect
+
+    path = tmp_path / "o.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    marks = {m: {"draft": 7.0, "mean": 7.0, "ok": True} for m in MARK_ORDER}
+    ests = []
+    for i in range(4):
+        out = {**marks, "mid_port": {**marks["mid_port"], "ok": i < 2}}
+        ests.append(Estimate("draft", "draft", 10.0 + i, {"marks": out, "mean_draft": 7.0, "trim": 0.1, "list": 0.0}))
+    rig.rec.write(ests)
+    rig.close()
+    data = collect(path)
+    out = data.panel("marks_out")
+    assert list(out) == ["mid_port"] and out["mid_port"].t == [12.0, 13.0]
+    assert out["mid_port"].y == [MARK_ORDER.index("mid_port") + 1] * 2
+    assert {"mean draft", "mid_port"} <= set(data.panel("draft")) and set(data.panel("trim")) == {
+        "trim (+ by the stern)", "list (port - stbd)"}
+
+
+@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
+def test_plot_draws_the_marks_out_panel(make_rig, tmp_path, capsys):
+    from edged_mcap.plotdata import MARK_ORDER
+
+    path = tmp_path / "o.mcap"
+    rig = make_rig(path=str(path))
+    rig.open()
+    marks = {m: {"draft": 7.0, "mean": 7.0, "ok": m != "aft_stbd"} for m in MARK_ORDER}
+    rig.rec.write([Estimate("draft", "draft", 10.0 + i, {"marks": marks, "mean_draft": 7.0, "trim": 0.1, "list": 0.0})
+                   for i in range(3)])
+    rig.close()
+    assert cli(["plot", str(path), "-o", str(tmp_path / "r.png")]) == 0
+    assert "marks out" in capsys.readouterr().err

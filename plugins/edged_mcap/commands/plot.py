@@ -26,6 +26,7 @@ from mcap.exceptions import McapError
 
 from ..plotdata import (
     ACF_LAGS,
+    MARK_ORDER,
     PlotData,
     StwError,
     StwSeries,
@@ -77,6 +78,16 @@ def _series(ax: Any, data: PlotData, key: str, ylabel: str, t0: float) -> None:
         ax.plot([(t - t0) / 60.0 for t in s.t], s.y, lw=0.8, label=label)
     ax.set_ylabel(ylabel)
     ax.legend(fontsize="small", loc="upper right")
+    ax.grid(True, lw=0.3)
+
+
+def _marks_out(ax: Any, data: PlotData, t0: float) -> None:
+    """A tick at each estimate's time on the row of each mark it flagged `ok: false`."""
+    for name, s in data.panel("marks_out").items():
+        ax.plot([(t - t0) / 60.0 for t in s.t], s.y, "|", ms=6, label=name)
+    ax.set_yticks(range(1, len(MARK_ORDER) + 1), MARK_ORDER, fontsize="small")
+    ax.set_ylim(0.5, len(MARK_ORDER) + 0.5)
+    ax.set_ylabel("marks out")
     ax.grid(True, lw=0.3)
 
 
@@ -191,6 +202,8 @@ def render(data: PlotData, out: Path, title: str, truth: Truth | None = None, ma
     for key, ylabel in _TIME_PANELS[1:]:
         if data.panel(key):
             drawers.append((key, "time", lambda ax, k=key, y=ylabel: _series(ax, data, k, y, t0)))
+    if data.panel("draft") and data.panel("marks_out"):
+        drawers.append(("marks out", "time", lambda ax: _marks_out(ax, data, t0)))
     if not drawers:
         return []
     heights = [3.0 if kind == "track" else 1.4 if name.startswith("stw ") else 1.0 for name, kind, _ in drawers]
