@@ -145,10 +145,12 @@ KINDS: dict[str, KindSpec] = {
         ),
         _k(
             "draft",
-            "Draft at one mark; status 0 ok, 1 fault, 2 out of water.",
+            "Draft at one mark; status 0 ok, 1 fault, 2 out of water; lost: frames of the "
+            "mark lost before this one, as its frame counter says (absent without one).",
             Field("mark", "name"),
             Field("draft", "m", lo=0.0, hi=70.0),
             Field("status", "1", lo=0, hi=255),
+            Field("lost", "1", required=False, lo=0, hi=255),
         ),
     )
 }

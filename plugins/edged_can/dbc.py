@@ -58,6 +58,11 @@ def _binding(sm: SignalMap, bus: str) -> _Binding:
     )
 
 
+#: Measurement kinds that carry a frame counter's `lost` (DESIGN §2): those that
+#: define the field.
+LOST_KINDS = frozenset(k for k, spec in KINDS.items() if "lost" in spec.field_names)
+
+
 def _values(b: _Binding, sig: dict[str, object]) -> dict[str, object] | None:
     """The measurement's values, or None when a physical signal says "not available"."""
     values: dict[str, object] = {} if b.mark is None else {"mark": b.mark}
@@ -111,8 +116,7 @@ class DbcDecoder:
             self._health.error(f"{fr.message.name}: cannot decode {raw.data.hex()} ({exc})")
             return []
         self._health.count(fr.frames_key)
-        if fr.counter is not None:
-            self._check_counter(fr, int(sig[fr.counter]))
+        lost = None if fr.counter is None else self._check_counter(fr, int(sig[fr.counter]))
         out: list[Measurement] = []
         t = raw.t
         for b in fr.bindings:
@@ -120,18 +124,23 @@ class DbcDecoder:
             if values is None:
                 self._emit.unavailable(b.unavailable_key)
             else:
+                if lost is not None and b.kind in LOST_KINDS:
+                    values["lost"] = lost  # the sensor's own count: what timing cannot tell
                 self._emit(out, b.kind, b.source, t, values)
         return out
 
-    def _check_counter(self, fr: _Frame, counter: int) -> None:
-        """An 8-bit counter +1 per frame: a gap of n means n frames lost on the way."""
+    def _check_counter(self, fr: _Frame, counter: int) -> int | None:
+        """An 8-bit counter +1 per frame: a gap of n means n frames lost on the way.
+        The frames lost before this one (None: the first, or a repeat)."""
         last = fr.last_counter
         fr.last_counter = counter
         if last is None:
-            return
+            return None
         gap = (counter - last - 1) & 0xFF
         if gap == 0xFF:  # the same counter again: a repeated frame
             self._health.count("dbc.repeated")
-        elif gap:
+            return None
+        if gap:
             self._health.count("dbc.lost", gap)
             self._health.count(fr.lost_key, gap)
+        return gap

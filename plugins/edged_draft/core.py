@@ -134,7 +134,8 @@ class DraftCore:
         if name in self._pending:
             self._flush()
         self.seen += 1
-        lost = st.heard(t)
+        counted = v.get("lost")
+        lost = st.heard(t, counted if isinstance(counted, int) and not isinstance(counted, bool) else None)
         if lost:
             st.counts["lost"] += lost  # health: marks.<mark>.lost
         status = v.get("status", 0)
@@ -357,14 +358,21 @@ class DraftCore:
                     filled[name] = v
                     self._filled.append(name)
         converging = False
-        if all(m is None for m in means.values()) and self._starting(t):
+        if all(m is None for m in means.values()) and self._t_first is not None \
+                and t - self._t_first >= EARLY_AFTER:
             # The estimator's first seconds: no mark is in yet (each settles START_SETTLE
-            # s), but their means are known with their σ: the derived values from them,
-            # `converging` (a demo's stayed null for ten seconds).
-            means = {m: (f.mean if m in self.filters else None) for m, f in
-                     ((m, self.filters.get(m)) for m in derived.MARKS)}
-            filled = dict(means)
-            converging = True
+            # s), but the starting marks' means are known with their σ: the derived
+            # values from them (a mark out for a fault is left out, and filled from its
+            # partner and the list as ever), `converging` (a demo's stayed null for ten
+            # seconds).
+            early = {m: self.filters[m].mean if self._starting(m) else None for m in derived.MARKS}
+            filled = dict(early)
+            for name in derived.MARKS:
+                if early[name] is None:
+                    filled[name] = derived.fill(name, early)
+            if any(v is not None for v in early.values()):
+                means = early
+                converging = True
         pos = derived.floating_position(filled, cfg.beam)
         mean_std = self._mean_draft_std(means) if pos["mean_draft"] is not None else None
         values: dict[str, Any] = {"marks": marks, **pos, "mean_draft_std": mean_std, "filled": list(self._filled),
@@ -387,14 +395,10 @@ class DraftCore:
         self._rigid_chi2 += (chi2 - self._rigid_chi2) / RIGID_TAU
         return self._rigid_chi2 <= RIGID_CHI2
 
-    def _starting(self, t: float) -> bool:
-        """Every mark in its first start (never in yet, no fault), EARLY_AFTER s after
-        the first reading, and at least two at each station's side to see trim and list."""
-        if self._t_first is None or t - self._t_first < EARLY_AFTER:
-            return False
-        if any(not (st.first and st.reason in ("starting", "settling")) for st in self.state.values()):
-            return False
-        return all(m in self.filters for m in derived.MARKS)
+    def _starting(self, name: str) -> bool:
+        """A mark in its first start: a filter, never in yet, and not out for a fault."""
+        st = self.state[name]
+        return name in self.filters and st.first and st.reason in ("starting", "settling")
 
     def _sounded(self, t: float, below: float, dt: float | None) -> None:
         """The water depth from a sounding: the depth below the transducer plus how deep

@@ -72,6 +72,9 @@ def test_draft_counter_gaps_are_lost_frames_and_wrap(feed, health):
     assert len(ms) == len(counters)  # a repeated frame is still a reading
     assert health.counters["dbc.lost"] == 2
     assert health.counters["dbc.lost.DraftMark_fore_port"] == 2
+    # each reading carries what its counter says was lost before it (issue 31): the
+    # draft estimator counts a mark's gaps from it, not from delivery times
+    assert [m.values.get("lost") for m in ms] == [None, 0, 0, 2, None, 0]
     assert health.counters["dbc.repeated"] == 1
     feed((0x311, draft_frame(5000, 0, 77)))  # each mark has its own counter
     assert health.counters["dbc.lost"] == 2

@@ -71,3 +71,22 @@ def test_a_mark_stuck_at_one_value_is_frozen_until_it_moves():
         frozen.append(st.frozen(t, 7.123))
     assert not any(frozen[:2990]) and all(frozen[3000:])  # from 30 s on
     assert not st.frozen(t + 0.01, 7.124)
+
+
+def test_a_mark_with_a_frame_counter_is_judged_by_it_not_by_delivery_times():
+    """A live bus under load delivers frames in bursts (0.1 ms apart, then 100 ms of
+    nothing): by the rhythm 6,000 of 17,000 readings looked lost and every mark went
+    out for `gaps`. The frame counter's `lost` is the sensor's own word."""
+    st = MarkState("fore_port")
+    t, lost = 0.0, 0
+    for burst in range(100):
+        for i in range(10):
+            t += 0.0001
+            lost += st.heard(t, 0)
+        t += 0.099
+    assert lost == 0 and st.lost_share == 0.0
+    for _ in range(50):  # then two frames lost before every reading
+        t += 0.03
+        lost += st.heard(t, 2)
+    # the 10-s window: 85 bursts of 10 and these 50, 100 lost among them
+    assert lost == 100 and abs(st.lost_share - 100 / (100 + 850 + 50)) < 0.01
