@@ -38,7 +38,7 @@ from .config import DEG, ManoeuvreConfig
 from .decimate import Decimator
 from .faults import SensorFaults
 from .ctra import Ctra
-from .model import KINDS, PSI, R, residual, rk4, say, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, R, residual, say, wrap_2pi, wrap_pi
 from .blend import ForecastBlend
 from .calibrate import EllipseCalibration
 from .predict import Predictor
