@@ -23,9 +23,10 @@ from .waves import WaveBank, WaveMark, step_marks
 
 #: Below this the learned sensor σ is not believed (m): a stuck sensor is not precise.
 SIGMA_FLOOR = 0.001
-#: A mark's first reading and its start: two seconds, then it is in (its σ says how far
-#: its first means are to be trusted). Ten kept a demo's derived values null for 10 s;
-#: the issue asks for them within 3 s of the first frames.
+#: A mark's first reading and its start: ten seconds, then it is in (its first means
+#: carry the sea: let in after 2–6 s, marks were then put out again as disagreeing).
+#: Until then the derived values come from the starting marks, `converging`
+#: (EARLY_AFTER).
 START_SETTLE = 10.0
 #: From this long after the first reading (s) the derived values are published from
 #: the starting marks' means, `converging`, until the marks are in.
