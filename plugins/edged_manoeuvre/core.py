@@ -517,6 +517,12 @@ class ManoeuvreCore:
         for g, states in groups.items():
             for i in states:
                 Q[i, i] *= self.qscales[g].scale
+        if groups is self._gyro_states:
+            # r's own noise follows the yaw group down, never up: a calm ship's gyro
+            # reading 0.005 °/s is then followed as closely as the paper's filter does
+            # (Williamson: yaw-rate NIS 0.25 per dof with it fixed, 1.02 so), and a
+            # seaway's yaw is the yaw acceleration's to carry
+            Q[R, R] *= min(self.qscales["yaw"].scale, 1.0)
         return Q
 
     @property
