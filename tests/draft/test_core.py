@@ -267,3 +267,14 @@ def test_each_mark_reads_its_own_sea_where_no_rigid_motion_explains_the_marks():
     core = _core()
     rms = _mark_rms(run(core, rigid.measurements()), rigid)
     assert core.health()["rigid"]["used"] and max(rms.values()) < 0.015, rms
+
+
+def test_a_mark_stuck_at_one_value_is_counted_frozen_and_left_out():
+    """The core's reject path for `frozen`: mid_port repeats 7.3 m exactly from 10 s on;
+    after 30 s of it each reading is counted and not used, and the mark is out."""
+    hull = Hull(duration=50.0, faults={"mid_port": lambda t, v, s: (7.3, s) if t >= 10.0 else (v, s)})
+    core = _core()
+    out = run(core, hull.measurements())
+    h = core.health()
+    assert h["rejected"]["mid_port.frozen"] > 500 and h["marks"]["mid_port"]["why"] == "frozen"
+    assert not out[-1].values["marks"]["mid_port"]["ok"]
