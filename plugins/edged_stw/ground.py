@@ -51,6 +51,60 @@ Q_UP = 5.0
 #: acceleration σ is back to 0.003 m/s² within a minute and the next change of the
 #: order (the end of the slowing down) is missed the same way.
 Q_ORDER = 1e-4
+#: The manoeuvre watch (`DriftWatch`): the time constant (s) of the running mean of
+#: the whitened innovations, and the χ² (2 dof, 99.9 %) its square may reach, in units
+#: of its own variance, before the filter is told that the acceleration changed.
+DRIFT_TAU = 2.0
+DRIFT_GATE = 13.8
+ACCEL_DRIFT_TAU = 4.0
+#: The watch judges only a mean of several innovations (its variance V at most this,
+#: about a dozen samples' worth): a lone 1 Hz or 30-s innovation is the gate's and
+#: `adapt`'s to judge, and a single surprise must not loosen a sparse-fix filter.
+DRIFT_MAX_VAR = 0.15
+ACCEL_JUMP = 0.02
+
+
+class DriftWatch:
+    """A change of acceleration the filter is too stiff to see (a ship's new orders).
+
+    Why: with SOG at 10 Hz, R dominates each innovation, the NIS stays near its dof and
+    `GroundFilter.adapt` lowers q to a laden ship's 1e-9; when the ship then starts or
+    stops speeding up, each innovation is a fraction of its σ, and the velocity lagged
+    by the change of acceleration × 10 s (0.14 m/s at 0.02 m/s², squat run). The
+    innovations of a consistent filter are white; a lag makes them all lean one way.
+    Their exponentially weighted mean (time constant DRIFT_TAU), each whitened by its
+    S's Cholesky factor L,
+        w = L⁻¹y,   m ← (1 − α)·m + α·w,   V ← (1 − α)²·V + α²,   α = min(Δt/τ, 1)
+    has covariance V·I while they are white; mᵀm > DRIFT_GATE·V says they are not.
+    Ramps of 0.02 m/s² are seen within 3–4 s from SOG alone (the information the
+    readings hold: Σ(a·t/σ)² reaches the gate then), sooner with an accelerometer."""
+
+    def __init__(self, tau: float = DRIFT_TAU) -> None:
+        self.tau = tau
+        self.m = np.zeros(2)
+        self.y = np.zeros(2)  # the same mean of the innovations as they are (m/s, m/s²)
+        self.V = 0.0
+        self.t: float | None = None
+
+    def lean(self, t: float, y: np.ndarray, S: np.ndarray) -> bool:
+        """Add one innovation; True when the recent ones lean beyond the gate."""
+        try:
+            w = np.linalg.solve(np.linalg.cholesky(S), y)
+        except np.linalg.LinAlgError:  # S not positive: nothing to judge by
+            return False
+        if not np.all(np.isfinite(w)):
+            return False
+        a = 1.0 if self.t is None else min(max(t - self.t, 1e-3) / self.tau, 1.0)
+        self.t = t
+        self.m = (1.0 - a) * self.m + a * w
+        self.y = (1.0 - a) * self.y + a * y
+        self.V = (1.0 - a) ** 2 * self.V + a * a
+        return self.V <= DRIFT_MAX_VAR and float(self.m @ self.m) > DRIFT_GATE * self.V
+
+    def clear(self) -> None:
+        self.m[:] = 0.0
+        self.y[:] = 0.0
+        self.V = 0.0
 
 
 def transition(T: float, r: float = 0.0) -> np.ndarray:
@@ -91,6 +145,10 @@ class GroundFilter:
         #: Rate of turn (rad/s) the next prediction turns the velocity by (set by the
         #: vector model from the gyro or the heading; 0 when neither is fresh).
         self.r = 0.0
+        #: The manoeuvre watches on the GNSS velocity's and the accelerometers'
+        #: innovations, and how often they raised q (`DriftWatch`).
+        self._watch = {"velocity": DriftWatch(), "accel": DriftWatch(ACCEL_DRIFT_TAU)}
+        self.manoeuvres = 0
 
     def predict(self, t: float) -> None:
         T = t - self.t
@@ -142,8 +200,9 @@ class GroundFilter:
     def try_velocity(self, v_n: float, v_e: float, sigma: float, gate: float) -> tuple[float, bool]:
         z = np.array([v_n, v_e])
         R = np.eye(2) * sigma * sigma
-        _, _, nis = innovation(self.x, self.P, z, R, _H_VEL)
+        y, S, nis = innovation(self.x, self.P, z, R, _H_VEL)
         self.adapt(nis, 2)
+        self._watched("velocity", y, S)
         if not nis <= gate:  # NaN fails too
             return nis, False
         self.x, self.P = update(self.x, self.P, z, R, _H_VEL)
@@ -155,11 +214,23 @@ class GroundFilter:
         R = np.eye(2) * var
         H = _H_ACC.copy()
         H[0, V_E], H[1, V_N] = -self.r, self.r
-        _, _, nis = innovation(self.x, self.P, z, R, H)
+        y, S, nis = innovation(self.x, self.P, z, R, H)
+        self._watched("accel", y, S)
         if not nis <= gate:  # NaN fails too
             return nis, False
         self.x, self.P = update(self.x, self.P, z, R, H)
         return nis, True
+
+    def _watched(self, kind: str, y: np.ndarray, S: np.ndarray) -> None:
+        """Raise q to Q_ORDER when a watch sees the innovations lean one way."""
+        watch = self._watch[kind]
+        if watch.lean(self.t, y, S):
+            lag = float(watch.y @ watch.y) if kind == "velocity" else 0.0
+            self.P[VEL, VEL] += np.eye(2) * lag
+            self.P[ACC, ACC] += np.eye(2) * ACCEL_JUMP**2
+            self.manoeuvres += 1
+            for w in self._watch.values():
+                w.clear()
 
     def reset_position(self, n: float, e: float, sigma: float) -> None:
         """Trust the GNSS again after a jump the gate kept rejecting (a new antenna,

@@ -226,8 +226,9 @@ def test_an_order_to_slow_down_between_30_s_fixes_is_followed_once_the_gnss_show
     filter starts again from the GNSS there. Before, both were rejected for ten fixes
     (generalise.py, tanker:fog: the SOG 1.5 m/s high for two minutes).
     Measured over the 5 minutes from the third fix after the order (seed 1, 2, 3): SOG
-    error RMS 0.14, 0.18, 0.21 m/s, largest 0.40, 0.70, 0.52; without the joint reset
-    RMS 0.55, 0.58, 1.43, largest 1.3, 1.5, 1.9."""
+    error RMS 0.11, 0.18, 0.21 m/s, largest 0.33, 0.70, 0.52 (seed 1: the accelerometers'
+    lean seen by the drift watch, before the GNSS; before the watch 0.14, 0.40); without
+    the joint reset RMS 0.55, 0.58, 1.43, largest 1.3, 1.5, 1.9."""
     v = Voyage(seed=seed, speed=7.0, speed2=5.0, speed_at=2400.0, speed_ramp=60.0, duration=3000, gnss_period=30,
                imu_hz=1, current_drift=0.3)
     ms = list(v.measurements())
@@ -243,4 +244,7 @@ def test_an_order_to_slow_down_between_30_s_fixes_is_followed_once_the_gnss_show
     err = np.array([e.values["sog"] - sog_true(e.t - T0) for e in est if third + 1.0 <= e.t <= third + 300.0])
     assert err.size > 250
     assert np.sqrt(np.mean(err**2)) < 0.3 and np.abs(err).max() < 0.9, (np.sqrt(np.mean(err**2)), np.abs(err).max())
-    assert "manoeuvre it missed" in (c.monitor.last_reset or ""), c.monitor.last_reset
+    # noticed: by the accelerometers' innovations leaning one way (ground.DriftWatch),
+    # or where the IMU's noise hides it, by the joint reset
+    noticed = c.model.ground.manoeuvres > 0 or "manoeuvre it missed" in (c.monitor.last_reset or "")
+    assert noticed, (c.model.ground.manoeuvres, c.monitor.last_reset)
