@@ -75,6 +75,17 @@ def positive_seconds(text: str) -> float:
     return v
 
 
+def seed(text: str) -> int:
+    """`edged sim --seed`: a whole number from 0 to 2³² − 1 (numpy's seed range)."""
+    try:
+        v = int(text)
+    except ValueError:
+        v = -1
+    if not 0 <= v < 2**32:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to {2**32 - 1}, not {text!r}")
+    return v
+
+
 def silence_stdout() -> None:
     """After a broken pipe on standard output: point it at /dev/null, so that the
     interpreter's flush at exit does not fail again (and print a traceback)."""
@@ -131,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario", metavar="SCENARIO")
     p.add_argument("--out", required=True, metavar="DIR")
     p.add_argument("--duration", type=float, default=None, metavar="S")
-    p.add_argument("--seed", type=int, default=0, metavar="N")
+    p.add_argument("--seed", type=seed, default=0, metavar="N")
     p.add_argument("--waves", metavar="SPEC", default=None,
                    help="the sea instead of the scenario's: regular:AMPLITUDE,PERIOD[,FROM_DEG] or "
                         "jonswap:HS,TP[,FROM_DEG] (m, s, degrees true; FROM_DEG defaults to the scenario's)")

@@ -12,6 +12,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
+from pydantic import ValidationError
+
 from .clock import LiveClock, ReplayClock
 from .cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, SPEED_RULE, stdout_closed
 from .config import Config, ConfigError, default_config, load_config
@@ -63,11 +65,11 @@ def _load(path: str | None, registry: Registry) -> Config:
 
 
 def _with_overrides(cfg: Config, args: argparse.Namespace) -> Config:
-    if getattr(args, "vessel_id", None):
+    if getattr(args, "vessel_id", None) is not None:
         try:
             cfg.edged = cfg.edged.model_validate({**cfg.edged.model_dump(), "vessel_id": args.vessel_id})
-        except Exception as exc:
-            raise ConfigError("--vessel-id", [("vessel_id", str(exc).splitlines()[-1].strip())]) from None
+        except ValidationError as exc:
+            raise ConfigError("--vessel-id", [("vessel_id", e["msg"]) for e in exc.errors()]) from None
     return cfg
 
 
