@@ -21,7 +21,7 @@ from .health import OK_STATES
 from .logs import reopen_logs, setup_logging
 from .records import HealthRecord
 from .registry import PluginNotFound, Registry
-from .replay import Replayer, ReplayStats, UnknownFormat
+from .replay import Replayer, ReplayStats, UnknownFormat, detect
 from .runtime import OutputHost, PluginBuildError, Runtime
 from .signals import StopSignals
 
@@ -191,6 +191,24 @@ def replay_config(cfg: Config, args: argparse.Namespace, registry: Registry) -> 
     return cfg
 
 
+def _logs_only(paths: list[Path], registry: Registry) -> list[Path]:
+    """The files a log reader recognises; each other one named on stderr and skipped.
+    `edged replay DIR/*` after `edged sim --out DIR` meets meta.json and truth.csv
+    beside the logs: the logs are replayed (exit 0) and the rest named; only when no
+    file is left is it bad usage (the caller exits 2)."""
+    logs = []
+    for p in paths:
+        try:
+            detect(p, registry)
+        except UnknownFormat as exc:
+            print(f"edged replay: skipped {exc}", file=sys.stderr)
+            continue
+        logs.append(p)
+    if not logs:
+        print(f"edged replay: none of the {len(paths)} file(s) is a log any reader recognises", file=sys.stderr)
+    return logs
+
+
 def record_target_problem(target: str) -> str | None:
     """Why `--record OUT` cannot be recorded into, when that can be told before the
     replay starts (bad usage, exit 2); None when it looks writable. Missing folders are
@@ -201,6 +219,8 @@ def record_target_problem(target: str) -> str | None:
     if p.exists():
         if not p.is_file():
             return "is not a regular file"
+        if _no_storage(p):
+            return _NO_STORAGE
         return None if os.access(p, os.W_OK) else "is not writable"
     folder = p.parent
     while not folder.exists():
@@ -211,7 +231,21 @@ def record_target_problem(target: str) -> str | None:
         return f"{folder} is not a directory"
     if not os.access(folder, os.W_OK | os.X_OK):
         return f"cannot create files in {folder}"
+    if _no_storage(folder):
+        return _NO_STORAGE
     return None
+
+
+_NO_STORAGE = "is on a filesystem without storage (such as /proc or /sys): nothing can be recorded there"
+
+
+def _no_storage(path: Path) -> bool:
+    """A kernel's virtual filesystem (proc, sysfs) reports no blocks at all; a real
+    disk, however full, reports its size (a full one is the recorder's disk floor's)."""
+    try:
+        return os.statvfs(path).f_blocks == 0
+    except OSError:
+        return False
 
 
 def _counted(counters: dict[str, int], prefix: str) -> tuple[int, str]:
@@ -354,6 +388,9 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
     missing = [str(p) for p in paths if not p.is_file()]
     if missing:
         print(f"edged replay: no such file: {', '.join(missing)}", file=sys.stderr)
+        return EXIT_USAGE
+    paths = _logs_only(paths, registry)
+    if not paths:
         return EXIT_USAGE
     setup_logging(args.log_level or "warning", None)
     try:

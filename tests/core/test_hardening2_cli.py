@@ -37,3 +37,52 @@ def test_a_vessel_id_that_is_no_key_segment_says_why(vid, tmp_path: Path, capsys
     assert rc == 2, err
     assert "--vessel-id" in err and "Zenoh key segment" in err
     assert "pydantic" not in err and "http" not in err
+
+
+def _nmea_log(path: Path, seconds: int) -> Path:
+    def cs(s: str) -> str:
+        x = 0
+        for ch in s:
+            x ^= ord(ch)
+        return f"${s}*{x:02X}"
+    path.write_text("".join(cs(f"GPGGA,1200{k:02d}.00,5400.000,N,01000.000,E,1,08,0.9,5.0,M,40.0,M,,") + "\n"
+                            for k in range(seconds)))
+    return path
+
+
+@pytest.mark.parametrize("others", [["meta.json"], ["meta.json", "truth.csv", "draft.toml"]])
+def test_files_that_are_no_log_are_named_and_skipped(others, tmp_path: Path, capsys):
+    """`edged replay DIR/*` after `edged sim --out DIR`: the logs replay, exit 0, and
+    each other file is named on stderr."""
+    log = _nmea_log(tmp_path / "nmea.log", 5)
+    rest = []
+    for name in others:
+        (tmp_path / name).write_text('{"scenario": "x"}\n' if name.endswith(".json") else "t,x\n1,2\n")
+        rest.append(str(tmp_path / name))
+    rc = main(["replay", "--no-zenoh", "--no-progress", str(log), *rest])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    for name in others:
+        assert f"skipped {tmp_path / name}: format not recognised" in out.err
+    assert "replayed 5 records" in out.out
+
+
+@pytest.mark.parametrize("n", [1, 3])
+def test_nothing_left_to_replay_is_bad_usage(n, tmp_path: Path, capsys):
+    files = []
+    for k in range(n):
+        f = tmp_path / f"notes{k}.txt"
+        f.write_text("nothing a reader knows\n")
+        files.append(str(f))
+    assert main(["replay", "--no-zenoh", "--no-progress", *files]) == 2
+    err = capsys.readouterr().err
+    assert f"none of the {n} file(s) is a log" in err and all(f"skipped {f}" in err for f in files)
+
+
+@pytest.mark.parametrize("target", ["/proc/version", "/proc/edged-test.mcap", "/sys/kernel/edged-test.mcap"])
+def test_recording_onto_a_kernel_filesystem_is_bad_usage_naming_it(target, tmp_path: Path, capsys):
+    """Was "disk_low" and exit 1 after the replay: it is a usage error, told first."""
+    log = _nmea_log(tmp_path / "nmea.log", 3)
+    assert main(["replay", "--no-zenoh", "--no-progress", "--record", target, str(log)]) == 2
+    err = capsys.readouterr().err
+    assert f"--record {target}: is on a filesystem without storage" in err
