@@ -80,6 +80,12 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
         p = Path(zc)
         if not p.is_file():
             raise ConfigError(str(p), [("--zenoh-config", "no such file")])
+        try:
+            p.read_bytes().decode("utf-8")
+        except OSError as exc:
+            raise ConfigError(str(p), [("--zenoh-config", f"cannot read: {exc.strerror or exc}")]) from None
+        except UnicodeDecodeError as exc:
+            raise ConfigError(str(p), [("--zenoh-config", f"not a json5 text file (byte {exc.start} is no UTF-8)")]) from None
         opts["zenoh_config"] = str(p.resolve())
     return opts
 
@@ -154,6 +160,9 @@ def cmd_run(args: argparse.Namespace, registry: Registry) -> int:
         print(exc, file=sys.stderr)
         return EXIT_USAGE
     setup_logging(args.log_level or cfg.edged.log_level, cfg.edged.log_file)
+    if "zenoh_config" in opts and not any(c.type == PUBLISHER_TYPE for c in (*cfg.inputs.values(), *cfg.outputs.values())):
+        log.warning("event=option-unused option=--zenoh-config file=%r reason='no zenoh input or output is configured: "
+                    "the file is not used'", opts["zenoh_config"])
     try:
         rt = Runtime(cfg, registry, LiveClock(), options=opts)
     except ConfigError as exc:

@@ -86,3 +86,19 @@ def test_recording_onto_a_kernel_filesystem_is_bad_usage_naming_it(target, tmp_p
     assert main(["replay", "--no-zenoh", "--no-progress", "--record", target, str(log)]) == 2
     err = capsys.readouterr().err
     assert f"--record {target}: is on a filesystem without storage" in err
+
+
+@pytest.mark.parametrize("command", ["run", "replay"])
+@pytest.mark.parametrize("size", [4, 1 << 20])
+def test_a_zenoh_config_that_is_no_text_is_refused_before_anything_starts(command, size, tmp_path: Path, capsys):
+    """Was: `run --zenoh-config` with a binary file ran on silently where no zenoh
+    plugin read it."""
+    junk = tmp_path / "z.json5"
+    junk.write_bytes((b"\x00\x01\xff\xfe" * (size // 4 + 1))[:size])
+    cfg = tmp_path / "edged.toml"
+    cfg.write_text('[inputs.nmea]\ntype = "nmea0183"\ntransport = "udp"\nport = 47999\n')
+    log = _nmea_log(tmp_path / "nmea.log", 3)
+    argv = ["run", "-c", str(cfg)] if command == "run" else ["replay", "--no-progress", str(log)]
+    assert main([*argv, "--zenoh-config", str(junk)]) == 2
+    err = capsys.readouterr().err
+    assert f"{junk}: --zenoh-config: not a json5 text file" in err
