@@ -158,6 +158,19 @@ class RouterConfig(BaseModel):
         return v
 
 
+#: What one configuration may ask for, per role (issue 32: 500 draft instances passed
+#: check-config; twenty took 3.36 GB, 168 MB each). A gateway computer has a few GB:
+#: an estimator or output in a process of its own costs 100–200 MB, an input a task
+#: and its buffers. Generous for any real vessel (three estimators, a recorder, a
+#: publisher, a dozen sensors), and refused with the count where it is not.
+MAX_INSTANCES = {"inputs": 64, "estimators": 12, "outputs": 12}
+MAX_WHY = {
+    "inputs": "each holds a connection and its buffers",
+    "estimators": "each may run in a process of its own, 100-200 MB",
+    "outputs": "each may run in a process of its own, 100-200 MB",
+}
+
+
 @dataclass
 class Config:
     """A validated configuration: core sections and each plugin's validated section."""
@@ -216,6 +229,10 @@ def parse_config(
         section = data.get(role, {})
         if not isinstance(section, dict):
             errors.append((role, "must be a table of named plugins"))
+            continue
+        if len(section) > MAX_INSTANCES[role]:
+            errors.append((role, f"{len(section)} instances: at most {MAX_INSTANCES[role]} "
+                                 f"({MAX_WHY[role]})"))
             continue
         for name, body in section.items():
             where = f"{role}.{name}"
