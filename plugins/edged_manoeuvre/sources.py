@@ -48,6 +48,10 @@ SAME = 0.5
 SAME_SHARE = 0.8
 PAIRS = 50
 FAILOVER = 2.0
+#: A reading is compared with at most this many other sources of its kind speaking at
+#: once (a ship has two or three of each sensor; a thousand at once is a replay of a
+#: thousand files of one instant, and pairs grow with the square).
+MAX_COMPARED = 8
 #: Two sources are apart when they differ by more than this many combined σ (and by
 #: more than the kind's floor); they disagree when SAME_SHARE of their pairs are apart,
 #: from half a window of pairs on, and agree again when fewer than AGAIN_SHARE are.
@@ -86,8 +90,10 @@ class SourceCopies:
     def __init__(self, floor: dict[str, np.ndarray] | None = None, choose: Choose | None = None,
                  one_at_a_time: frozenset[str] = frozenset()) -> None:
         self.one_at_a_time = one_at_a_time
-        self._last: dict[str, dict[str, tuple[float, np.ndarray]]] = {}  # kind -> source -> (t, z)
-        self._order: dict[str, list[str]] = {}  # kind -> sources in the order first heard
+        #: kind -> source -> (t, z) of the sources heard within FAILOVER s (older
+        #: ones are dropped as they are met: they neither pair nor mute)
+        self._last: dict[str, dict[str, tuple[float, np.ndarray]]] = {}
+        self._rank: dict[str, dict[str, int]] = {}  # kind -> source -> order first heard
         self._pairs: dict[tuple[str, str, str], _Pair] = {}
         self._floor = floor or {}
         self._choose: Choose = choose or (lambda kind, a, b, za, zb: (a, "heard first"))
@@ -99,19 +105,27 @@ class SourceCopies:
         still speaking, or the source not kept of two that disagree. `diff(a, b)` is
         the kind's residual (angles wrapped), `sigma(s)` a source's current 1-σ per row."""
         last = self._last.setdefault(kind, {})
-        order = self._order.setdefault(kind, [])
-        if source not in order:
-            order.append(source)
-        mine = order.index(source)
+        rank = self._rank.setdefault(kind, {})
+        mine = rank.setdefault(source, len(rank))
         prev = last.get(source)
         window = PAIR_WINDOW if prev is None or t <= prev[0] else min(PAIR_WINDOW, 0.5 * (t - prev[0]))
         floor = self._floor.get(kind)
         muted = False
-        for other in order:
-            if other == source or other not in last:
+        compared = 0
+        for other, (t_o, z_o) in list(last.items()):
+            if other == source:
                 continue
-            t_o, z_o = last[other]
-            first_is_other = order.index(other) < mine
+            if t - t_o > FAILOVER:
+                # silent for longer than a failover: nothing to pair with or defer
+                # to. Dropped, so that a replay of a thousand files one after the
+                # other compares each reading with the few sources speaking now
+                # (it compared with every source ever heard: 1,000 files, 95 s, 1.7 GB)
+                del last[other]
+                continue
+            compared += 1
+            if compared > MAX_COMPARED:
+                break
+            first_is_other = rank[other] < mine
             a, b = (other, source) if first_is_other else (source, other)
             pair = self._pairs.get((kind, a, b))
             if pair is None:
