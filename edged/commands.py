@@ -8,7 +8,6 @@ import logging
 import os
 import signal
 import sys
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
@@ -21,7 +20,7 @@ from .health import OK_STATES
 from .logs import reopen_logs, setup_logging
 from .records import HealthRecord
 from .registry import PluginNotFound, Registry
-from .replay import Replayer, ReplayStats, UnknownFormat, detect
+from .replay import Replayer, ReplayStats, UnknownFormat, detect, utc_iso
 from .runtime import OutputHost, PluginBuildError, Runtime
 from .signals import StopSignals
 
@@ -312,11 +311,7 @@ def _output_line(o: OutputHost, state: str) -> str:
     return f"output {o.name}: {', '.join(parts)}; {said}{err}"
 
 
-def _utc(t: float) -> str:
-    try:
-        return datetime.fromtimestamp(t, tz=timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-    except (OverflowError, OSError, ValueError):
-        return f"t={t!r}"
+_utc = utc_iso
 
 
 def print_summary(
@@ -346,6 +341,10 @@ def print_summary(
         print(f"records refused by the replay for a time that cannot be true: {stats.bad_time}", file=out)
     if stats.gaps_skipped:
         print(f"gaps in the data skipped instead of waited for (--speed pacing): {stats.gaps_skipped}", file=out)
+    for src, (index, now, t) in sorted(stats.stepped_back.items()):
+        print(f"time stepped back: {src} by {now - t:.1f} s at its record {index} (to {utc_iso(t)}, after "
+              f"{utc_iso(now)}); {stats.behind[src]} of its records behind the replay's clock reached no "
+              f"estimator (two logs in one? replay them one at a time)", file=out)
     rows: list[tuple[str, str, int]] = []
     for h in rt.health.components.values():
         if h.role != "input":
@@ -424,7 +423,10 @@ def cmd_replay(args: argparse.Namespace, registry: Registry) -> int:
         sys.stdout.flush()
     except BrokenPipeError:
         return stdout_closed("replay")
-    rc = EXIT_OK
+    rc = EXIT_FAILURE if stats.behind else EXIT_OK
+    if stats.behind:
+        print(f"edged replay: the time of {', '.join(sorted(stats.behind))} stepped back: "
+              f"{sum(stats.behind.values())} records reached no estimator", file=sys.stderr)
     for o in rt.outputs:
         why = output_failure(o, outcome.states.get(o.name, o.health.state))
         if why is not None:

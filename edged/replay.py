@@ -32,6 +32,7 @@ import heapq
 import io
 import logging
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Awaitable, BinaryIO, Callable, Iterable, Iterator
 
@@ -130,6 +131,20 @@ def detect(path: Path, registry: Registry) -> tuple[str, LogReader]:
     raise UnknownFormat(f"{path}: format not recognised (readers: {kinds})")
 
 
+#: Seconds a record may lie behind the replay's clock before its log counts as having
+#: stepped back (merged files and sensors' latencies are well within it; the routers'
+#: own reorder windows still judge what is late for each estimator).
+STEP_BACK = 60.0
+
+
+def utc_iso(t: float) -> str:
+    """A data time as the summary and the log print it: ISO 8601, UTC, milliseconds."""
+    try:
+        return datetime.fromtimestamp(t, tz=timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    except (OverflowError, OSError, ValueError):
+        return f"t={t!r}"
+
+
 @dataclass
 class ReplayStats:
     records: int = 0
@@ -141,6 +156,12 @@ class ReplayStats:
     bad_time: int = 0
     #: gaps the pacing skipped instead of waiting (longer than `max_wait` at the speed)
     gaps_skipped: int = 0
+    #: per source, where its time first stepped back by more than STEP_BACK s behind the
+    #: replay's clock: (its record number from 1, the clock's time then, the record's)
+    stepped_back: dict[str, tuple[int, float, float]] = field(default_factory=dict)
+    #: per source, its records more than STEP_BACK s behind the replay's clock: they
+    #: reach the outputs but no estimator (the routers count them `late`)
+    behind: dict[str, int] = field(default_factory=dict)
 
 
 class Replayer:
@@ -265,6 +286,7 @@ class Replayer:
         sleep = self._sleep
         decoders = self._decoders
         quiet_gc = _QuietGC()
+        seen: dict[str, int] = {}  # records per source so far (to name where a step is)
         try:
             for raw in merged:
                 t = raw.t
@@ -277,6 +299,9 @@ class Replayer:
                     next_tick = t + interval
                     # after the outputs are linked, at the first record: data flows now
                     log.info("event=replay-started inputs=%d speed=%g", len(self.paths), speed)
+                if t < clock.now() - STEP_BACK:
+                    self._behind(raw, clock.now(), seen.get(raw.source, 0) + 1)
+                seen[raw.source] = seen.get(raw.source, 0) + 1
                 clock.advance_to(t)
                 if speed > 0:
                     delay = wall0 + (t - t0) / speed - loop.time()
@@ -323,6 +348,22 @@ class Replayer:
             for s in self._streams:
                 s.close()
         return stats
+
+    def _behind(self, raw: RawRecord, now: float, index: int) -> None:
+        """A record far behind the replay's clock: its log's time stepped back (two
+        logs in one file, a receiver's clock set back an hour). The clock cannot go
+        back with it (every estimator has moved on), so what follows is late for them:
+        said once per source with where and how far, counted, and in the summary and
+        the exit code (1), not left to look like a short voyage."""
+        stats = self.stats
+        stats.behind[raw.source] = stats.behind.get(raw.source, 0) + 1
+        if raw.source not in stats.stepped_back:
+            stats.stepped_back[raw.source] = (index, now, raw.t)
+            log.warning(
+                "replay: the time of %s steps back %.1f s at its record %d (to %s, after %s): "
+                "its records from there are behind the replay's clock and reach no estimator",
+                raw.source, now - raw.t, index, utc_iso(raw.t), utc_iso(now),
+            )
 
     def _refuse(self, raw: RawRecord) -> None:
         """A record whose time no reader should have let through: counted, logged."""
