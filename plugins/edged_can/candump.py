@@ -19,6 +19,7 @@ import re
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
+from edged.loglines import numbered_lines
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
@@ -200,7 +201,7 @@ def read(
 
     fast = _FAST.fullmatch
     buses: dict[bytes, str] = {}
-    for lineno, line in enumerate(stream, 1):
+    for lineno, line in numbered_lines(stream, reject):
         m = fast(line)
         if m is not None:
             # `candump -l`, the common case, in one match: every field is already of

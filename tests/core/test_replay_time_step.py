@@ -1,8 +1,9 @@
 """Hardening, second round (issue 32): a log whose time steps back mid-file.
 
 An hour back at half-way gave 54,600 inputs counted `late`, no estimates for the second
-half, exit 0 and "300.0 s of data". Now the replay says where and how far the time
-stepped back, how many records reached no estimator, and exits 1."""
+half, exit 0 and "300.0 s of data", nothing else. Now the replay says where and how
+far the time stepped back and how many records reached no estimator (exit 0: real logs
+do it, and it is the log's doing)."""
 
 from __future__ import annotations
 
@@ -36,11 +37,11 @@ def _log(path: Path, first: int, second: int, back: int) -> Path:
 
 @pytest.mark.parametrize("back", [3600, 600, 90])
 @pytest.mark.parametrize("second", [1, 120])
-def test_a_time_that_steps_back_is_named_counted_and_exits_1(back, second, tmp_path, capsys):
+def test_a_time_that_steps_back_is_named_and_counted(back, second, tmp_path, capsys):
     log = _log(tmp_path / "gps.log", 120, second, back)
     rc = main(["replay", "--no-zenoh", "--no-progress", str(log)])
     out = capsys.readouterr()
-    assert rc == 1, out.err
+    assert rc == 0, out.err
     assert f"time stepped back: gps by {back - 1:.1f} s at its record 121" in out.out
     # every record after the step is behind (the second part is shorter than the step)
     behind = min(second, back - 1 - 60)

@@ -20,6 +20,7 @@ from datetime import datetime, timezone
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
+from edged.loglines import numbered_lines
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
@@ -71,7 +72,7 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
     reject = rejecter(health, f"{source}: ")
 
     meta = {"format": NAME}
-    for lineno, line in enumerate(stream, 1):
+    for lineno, line in numbered_lines(stream, reject):
         s = line.strip()
         if not s or s.startswith(b"#"):
             continue

@@ -41,6 +41,7 @@ from collections import deque
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
+from edged.loglines import numbered_lines
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
@@ -141,7 +142,7 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
             if r is not None:
                 yield r
 
-    for lineno, line in enumerate(stream, 1):
+    for lineno, line in numbered_lines(stream, reject):
         s = line.strip()
         if not s:
             continue

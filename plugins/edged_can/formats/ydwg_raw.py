@@ -33,6 +33,7 @@ from datetime import date as _date
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
+from edged.loglines import numbered_lines
 from edged.records import RawRecord
 from edged.timecheck import BAD_TIME, TimeWindow, limits_of
 
@@ -170,7 +171,7 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
             return None
         return RawRecord("can", source, t, s, meta)
 
-    for lineno, line in enumerate(stream, 1):
+    for lineno, line in numbered_lines(stream, reject):
         s = line.strip()
         if not s or s.startswith(b"#"):
             continue
