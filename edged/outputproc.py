@@ -38,6 +38,7 @@ from typing import Any
 
 from .clock import Clock
 from .health import ComponentHealth
+from .signals import ignore_stop_signals
 
 __all__ = ["ProcessOutput", "MirroredClock", "serve", "OutputProcessDied", "sigkill"]
 
@@ -126,8 +127,7 @@ class _Reporter:
 def serve(conn: Connection, plugin_cls: type, config: Any, name: str, vessel_id: str,
           options: dict[str, Any], files: list[str] | None, level: int) -> None:
     """The child's main loop; returns when told to stop or when the parent is gone."""
-    # Ctrl-C reaches the whole process group: the parent decides when this one ends.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    ignore_stop_signals()
     from .plugin import PluginContext  # (here: the child imports what it needs only)
 
     logs = _Collect()

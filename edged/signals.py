@@ -101,3 +101,20 @@ class StopSignals:
                 self._overdue = True
                 assert self._asked is not None
                 signal.pthread_kill(self._main, self._asked)
+
+
+#: The signals a process of the daemon's own (a recorder, a worker) leaves to the parent.
+CHILD_IGNORES = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def ignore_stop_signals() -> None:
+    """In a child process: ignore the stop signals that reach the whole process group.
+
+    Ctrl-C in a terminal, a hangup, and `systemctl stop` (systemd's default
+    KillMode=control-group sends SIGTERM to every process of the service) reach the
+    children too; a recorder that died of it left its MCAP unfinished while the daemon
+    still exited 0 (issue 32). The parent decides when a child ends: it drains the child
+    and tells it to stop, and a child whose parent is gone ends by itself (its pipe
+    closes). Only SIGKILL, systemd's last word after TimeoutStopSec, ends it otherwise."""
+    for sig in CHILD_IGNORES:
+        signal.signal(sig, signal.SIG_IGN)

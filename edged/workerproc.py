@@ -13,12 +13,12 @@ Messages (parent -> child): `("calls", [("step", record) | ("tick", t), ...])`,
 
 from __future__ import annotations
 
-import signal
 from multiprocessing.connection import Connection
 from typing import Any
 
 from .clock import ReplayClock
 from .health import ComponentHealth
+from .signals import ignore_stop_signals
 from .plugin import EstimatorPlugin, PluginContext
 
 __all__ = ["serve", "run_calls", "core_health"]
@@ -54,8 +54,7 @@ def run_calls(core: Any, calls: list[Call], results: list[list[Any]]) -> None:
 
 def serve(conn: Connection, plugin_cls: type[EstimatorPlugin], config: Any, name: str, vessel_id: str) -> None:
     """The child's main loop; returns when told to stop or when the parent is gone."""
-    # Ctrl-C reaches the whole process group: the parent decides when this one ends.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    ignore_stop_signals()
     clock = ReplayClock()
     health = ComponentHealth(name, "estimator", getattr(config, "type", ""), clock)
     ctx = PluginContext(name=name, clock=clock, health=health, publish=lambda rec: None, vessel_id=vessel_id)

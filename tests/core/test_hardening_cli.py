@@ -120,8 +120,13 @@ def test_record_onto_something_that_is_not_a_regular_file_exits_2(tmp_path, caps
 
 
 # -- SIGTERM / SIGINT ---------------------------------------------------------------
+@pytest.mark.parametrize("group", [False, True], ids=["process", "group"])
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig):
+def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig, group):
+    """To the replay's process, or (issue 32) to its whole process group, as Ctrl-C in a
+    terminal and `systemctl stop` do: the recorder's and the workers' processes ignore
+    it and the parent finishes the file (before, the group signal killed the recorder
+    first: the file was left unfinished)."""
     from mcap.reader import make_reader
 
     # Ten sentences at the first instant (replayed before the replay first waits),
@@ -136,6 +141,7 @@ def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig):
         stderr=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        start_new_session=group,  # its own group, so that the test is not in it
     )
     lines: queue.Queue[str | None] = queue.Queue()
 
@@ -158,7 +164,10 @@ def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig):
             seen.append(line)
             if "event=replay-started" in line:
                 break
-        proc.send_signal(sig)
+        if group:
+            os.killpg(proc.pid, sig)
+        else:
+            proc.send_signal(sig)
         proc.wait(timeout=30)  # the summary is far smaller than a pipe's buffer
         assert proc.stdout is not None
         stdout = proc.stdout.read()
