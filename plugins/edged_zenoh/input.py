@@ -25,7 +25,7 @@ from edged.records import RawRecord
 from .decode import ZenohDecoder
 from .keys import KeySpace, valid_chunk
 from .session import SessionOpener, close_session, plugin_session_config, plugin_session_link
-from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults
+from .zconfig import DEFAULT_LISTEN, ZenohSettings, check_key_prefix, safe_defaults, unguarded_endpoints
 
 __all__ = ["ZenohInput", "ZenohInputConfig", "KeyMapping"]
 
@@ -99,8 +99,22 @@ class ZenohInput(InputPlugin):
         return safe_defaults() if "mode" in self.config.model_fields_set else INPUT_DEFAULTS
 
     def check(self) -> None:
-        """The zenoh configuration files named here or by --zenoh-config must load."""
-        plugin_session_config(self.config, self.ctx, self._base_config())  # ZenohConfigError is a ValueError
+        """The zenoh configuration files named here or by --zenoh-config must load.
+
+        A warning (not an error) for each endpoint through which other hosts can publish
+        what this input takes in (the sea-current forecasts the STW estimator uses, any
+        mapped key) with no access control: on this computer's loopback the local
+        processes are trusted (deploy/zenoh/README.md), beyond it nobody is.
+        """
+        cfg = plugin_session_config(self.config, self.ctx, self._base_config())  # ZenohConfigError is a ValueError
+        keys = [key for key, _, _ in self._routes()]
+        for endpoint in unguarded_endpoints(cfg) if keys else ():
+            self.ctx.log.warning(
+                "event=zenoh-input-unguarded input=%s keys=%s endpoint=%s reason=%r",
+                self.ctx.name, ",".join(keys), endpoint,
+                "any host that reaches this endpoint can publish these keys: no access control "
+                "(access_control with default deny, transport/auth/usrpwd logins, mutual TLS; see deploy/zenoh/README.md)",
+            )
 
     async def run(self) -> None:
         """Open the session with the shared link (`edged.link`): the input's state is

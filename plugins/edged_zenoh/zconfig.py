@@ -19,6 +19,7 @@ which is the authority on what zenoh accepts.
 from __future__ import annotations
 
 import copy
+import ipaddress
 import json
 import re
 import socket
@@ -44,6 +45,8 @@ __all__ = [
     "to_zenoh",
     "session_config",
     "listen_endpoints",
+    "connect_endpoints",
+    "unguarded_endpoints",
     "with_listen_endpoints",
     "endpoint_in_use",
     "free_port_endpoint",
@@ -261,6 +264,72 @@ def listen_endpoints(cfg: Mapping[str, Any]) -> list[str]:
     if isinstance(eps, Mapping):
         eps = eps.get(cfg.get("mode", "peer")) or []
     return list(eps)
+
+
+def connect_endpoints(cfg: Mapping[str, Any]) -> list[str]:
+    """The endpoints this session will connect to (zenoh allows a list per mode)."""
+    eps = (cfg.get("connect") or {}).get("endpoints") or []
+    if isinstance(eps, Mapping):
+        eps = eps.get(cfg.get("mode", "peer")) or []
+    return list(eps)
+
+
+#: Link protocols whose far end proves who it is (a certificate checked against a CA).
+_AUTHENTICATED_LINKS = {"tls", "quic"}
+
+
+def _network_host(endpoint: str) -> tuple[str, str] | None:
+    """(protocol, host) of an endpoint other hosts can be at the far end of; None for
+    loopback addresses and endpoints without an address (unix sockets)."""
+    m = _PORT_RE.match(endpoint)
+    if m is None:
+        return None
+    host = m["host"].strip("[]").lower()
+    if host == "localhost" or host.endswith(".localhost"):
+        return None
+    try:
+        if ipaddress.ip_address(host.split("%")[0]).is_loopback:
+            return None
+    except ValueError:
+        pass  # a host name: not known to be this computer
+    return m["proto"], host
+
+
+def unguarded_endpoints(cfg: Mapping[str, Any]) -> list[str]:
+    """Where hosts other than this one can reach the session with no access control.
+
+    The session's own access control (`access_control` enabled, default deny) guards
+    everything. Otherwise: a listen endpoint on a non-loopback address, unless the
+    session refuses sessions that do not log in (a `transport/auth/usrpwd` dictionary)
+    or it is a tls/quic endpoint with mutual TLS; a connect
+    endpoint to another host over a link that does not authenticate that host (not
+    tls/quic: there the far end's access control decides, as router-tls.json5 does);
+    and multicast scouting, which connects to whatever answers on the network. Read
+    from the configuration as zenoh sees it (its defaults included).
+    """
+    z = to_zenoh(cfg)
+
+    def get(key: str) -> Any:
+        return json.loads(z.get_json(key))
+
+    acl = get("access_control") or {}
+    if acl.get("enabled") and acl.get("default_permission") == "deny":
+        return []
+    auth = get("transport/auth") or {}
+    logins = bool((auth.get("usrpwd") or {}).get("dictionary_file"))
+    mtls = bool((get("transport/link/tls") or {}).get("enable_mtls"))
+    out: list[str] = []
+    for ep in listen_endpoints(cfg):
+        net = _network_host(ep)
+        if net is not None and not logins and not (net[0] in _AUTHENTICATED_LINKS and mtls):
+            out.append(ep)
+    for ep in connect_endpoints(cfg):
+        net = _network_host(ep)
+        if net is not None and net[0] not in _AUTHENTICATED_LINKS:
+            out.append(ep)
+    if get("scouting/multicast/enabled"):
+        out.append("multicast scouting")
+    return out
 
 
 def with_listen_endpoints(cfg: Mapping[str, Any], endpoints: list[str]) -> dict[str, Any]:

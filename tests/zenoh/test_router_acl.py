@@ -1,0 +1,849 @@
+"""The shore router's access control (deploy/zenoh/router-tls.json5) on a real router.
+
+`edged router` runs the shipped file with only its certificate paths and its listen
+endpoint replaced (mutual TLS on 127.0.0.1), and client sessions connect with the
+certificates of a throwaway CA whose common names are `vessel-1`, `vessel-2` and
+`fleet-dashboard`. Every allowed flow is shown to work, every forbidden one never to
+arrive, and edged's own output and `edged fleet` to work through it.
+
+"Never arrives" without waiting for a while: the forbidden action is followed by an
+allowed one on the same session, and once the allowed one has arrived where the
+forbidden one would have, the forbidden one is looked for. What makes that sound:
+one session's messages reach the router in the order sent and are handled in that
+order (a declaration before any later sample); the router forwards a sample to every
+matching session at once; one link delivers samples in order, and a session hands them
+on in that order to one subscriber (two subscribers' callbacks run on threads of their
+own: a forbidden subscription is read from a channel, filled in arrival order). Where
+the actor can send nothing allowed to the observer, a chain does it (the actor's own
+allowed message seen elsewhere, then an allowed message to the observer from another
+session); queries and liveliness gets read the router's state after such a sync.
+
+The same forbidden probes against the same file with access control switched off show
+each of them arriving: a probe that could see nothing cannot pass for a rule that holds.
+Forbidden puts are plain `session.put`s of sessions that never declared a publisher
+on their keys: such a put is sent whatever the session knows of subscribers (a
+declared publisher sends only to subscribers the router told it of), so it is the
+router that drops it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import io
+import itertools
+import json
+import os
+import queue
+import shutil
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import json5
+import pytest
+import zenoh
+
+from edged.records import Estimate, HealthRecord
+from edged_zenoh.commands import fleet_main
+from edged_zenoh.output import ZenohOutput, ZenohOutputConfig
+
+REPO = Path(__file__).resolve().parents[2]
+SHIPPED = REPO / "deploy" / "zenoh" / "router-tls.json5"
+WAIT = 20.0  # seconds: a safety net, never the synchronisation itself
+T0 = 1_732_350_000.0
+CLIENTS = ("vessel-1", "vessel-2", "fleet-dashboard")
+
+
+# -- a throwaway PKI ------------------------------------------------------------------
+class Pki:
+    """File paths of a CA, a router certificate for 127.0.0.1/localhost, client certificates
+    (common name = the name), and one `rogue` client certificate of another CA."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.ca = folder / "ca.pem"
+
+    def cert(self, name: str) -> str:
+        return str(self.folder / f"{name}.pem")
+
+    def key(self, name: str) -> str:
+        return str(self.folder / f"{name}.key")
+
+
+def _pki_with_cryptography(pki: Pki) -> None:
+    import datetime
+    import ipaddress
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
+
+    now = datetime.datetime.now(datetime.timezone.utc)
+
+    def name(cn: str) -> x509.Name:
+        return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
+
+    def write(stem: str, key: Any, cert: x509.Certificate) -> None:
+        (pki.folder / f"{stem}.key").write_bytes(
+            key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption())
+        )
+        (pki.folder / f"{stem}.pem").write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+
+    def ca(stem: str, cn: str) -> tuple[Any, x509.Certificate]:
+        key = ec.generate_private_key(ec.SECP256R1())
+        cert = (
+            x509.CertificateBuilder().subject_name(name(cn)).issuer_name(name(cn)).public_key(key.public_key())
+            .serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=2))
+            .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+            .add_extension(x509.KeyUsage(digital_signature=False, content_commitment=False, key_encipherment=False,
+                                         data_encipherment=False, key_agreement=False, key_cert_sign=True,
+                                         crl_sign=True, encipher_only=False, decipher_only=False), critical=True)
+            .sign(key, hashes.SHA256())
+        )
+        write(stem, key, cert)
+        return key, cert
+
+    def leaf(stem: str, cn: str, issuer: tuple[Any, x509.Certificate], server: bool) -> None:
+        key = ec.generate_private_key(ec.SECP256R1())
+        b = (
+            x509.CertificateBuilder().subject_name(name(cn)).issuer_name(issuer[1].subject)
+            .public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=2))
+            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH if server
+                                                  else ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
+        )
+        if server:
+            b = b.add_extension(x509.SubjectAlternativeName(
+                [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), critical=False)
+        write(stem, key, b.sign(issuer[0], hashes.SHA256()))
+
+    site = ca("ca", "edged test site CA")
+    leaf("router", "localhost", site, server=True)
+    for cn in CLIENTS:
+        leaf(cn, cn, site, server=False)
+    leaf("rogue", "fleet-dashboard", ca("rogue-ca", "some other CA"), server=False)
+
+
+_OPENSSL_CNF = """\
+[req]
+distinguished_name = dn
+prompt = no
+[dn]
+CN = unused
+[ca]
+basicConstraints = critical, CA:TRUE
+keyUsage = critical, keyCertSign, cRLSign
+subjectKeyIdentifier = hash
+[server]
+basicConstraints = critical, CA:FALSE
+extendedKeyUsage = serverAuth
+subjectAltName = DNS:localhost, IP:127.0.0.1
+[client]
+basicConstraints = critical, CA:FALSE
+extendedKeyUsage = clientAuth
+"""
+
+
+def _pki_with_openssl(pki: Pki) -> None:
+    openssl = shutil.which("openssl")
+    if openssl is None:
+        raise OSError("no openssl command")
+    cnf = pki.folder / "openssl.cnf"
+    cnf.write_text(_OPENSSL_CNF)
+    serial = itertools.count(1000)
+
+    def run(*args: str) -> None:
+        subprocess.run([openssl, *args], cwd=pki.folder, check=True, capture_output=True, timeout=60)
+
+    newkey = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
+
+    def ca(stem: str, cn: str) -> None:
+        run("req", "-x509", "-config", str(cnf), "-extensions", "ca", *newkey, "-days", "2",
+            "-subj", f"/CN={cn}", "-keyout", f"{stem}.key", "-out", f"{stem}.pem")
+
+    def leaf(stem: str, cn: str, issuer: str, section: str) -> None:
+        run("req", "-new", "-config", str(cnf), *newkey, "-subj", f"/CN={cn}", "-keyout", f"{stem}.key",
+            "-out", f"{stem}.csr")
+        run("x509", "-req", "-in", f"{stem}.csr", "-CA", f"{issuer}.pem", "-CAkey", f"{issuer}.key",
+            "-set_serial", str(next(serial)), "-days", "2", "-extfile", str(cnf), "-extensions", section,
+            "-out", f"{stem}.pem")
+
+    ca("ca", "edged test site CA")
+    leaf("router", "localhost", "ca", "server")
+    for cn in CLIENTS:
+        leaf(cn, cn, "ca", "client")
+    ca("rogue-ca", "some other CA")
+    leaf("rogue", "fleet-dashboard", "rogue-ca", "client")
+
+
+@pytest.fixture(scope="module")
+def pki(tmp_path_factory: pytest.TempPathFactory) -> Pki:
+    """With cryptography when importable, else (or if it fails) the openssl command;
+    skipped only when neither can make them."""
+    p = Pki(tmp_path_factory.mktemp("pki"))
+    makers = [_pki_with_openssl]
+    try:
+        import cryptography  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        makers.insert(0, _pki_with_cryptography)
+    errors = []
+    for make in makers:
+        try:
+            make(p)
+            return p
+        except Exception as exc:  # noqa: BLE001 - any failure: try the next way, else skip
+            errors.append(f"{make.__name__}: {type(exc).__name__}: {exc}")
+    pytest.skip(f"cannot make TLS certificates: {'; '.join(errors)}")
+
+
+# -- the router and its clients ---------------------------------------------------------
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class RouterProc:
+    """`edged router --zenoh-config FILE` as a user runs it; stdout and stderr read by threads."""
+
+    def __init__(self, config: Path) -> None:
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "edged.cli", "router", "--zenoh-config", str(config)],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
+        self.lines: queue.Queue[str | None] = queue.Queue()
+        self.stderr: list[str] = []
+        threading.Thread(target=self._pump, args=(self.proc.stdout, self.lines.put), daemon=True).start()
+        threading.Thread(target=self._pump, args=(self.proc.stderr, self.stderr.append), daemon=True).start()
+        try:
+            line = self.lines.get(timeout=WAIT)
+        except queue.Empty:
+            line = None
+        if line is None or "listening on" not in line:
+            self.stop()
+            raise AssertionError(f"edged router did not start: {line!r}; stderr: {''.join(self.stderr)[-3000:]}")
+
+    @staticmethod
+    def _pump(stream: Any, put: Callable[[Any], None]) -> None:
+        for line in stream:
+            put(line)
+        put(None)
+
+    def stop(self) -> None:
+        for ask in (self.proc.terminate, self.proc.kill):
+            if self.proc.poll() is not None:
+                break
+            ask()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                continue
+
+
+def router_config(pki: Pki, endpoint: str, tmp: Path, *, acl: bool = True) -> Path:
+    """The shipped file with its certificate paths and listen endpoint replaced."""
+    cfg = json5.loads(SHIPPED.read_text())
+    tls = cfg["transport"]["link"]["tls"]
+    assert set(tls) >= {"root_ca_certificate", "listen_certificate", "listen_private_key"}
+    tls.update(root_ca_certificate=str(pki.ca), listen_certificate=pki.cert("router"),
+               listen_private_key=pki.key("router"))
+    cfg["listen"]["endpoints"] = [endpoint]
+    if not acl:
+        cfg["access_control"]["enabled"] = False
+    path = tmp / ("router-acl.json5" if acl else "router-open.json5")
+    path.write_text(json.dumps(cfg, indent=2))
+    return path
+
+
+def client_tls(pki: Pki, name: str) -> dict[str, Any]:
+    return {"root_ca_certificate": str(pki.ca), "connect_certificate": pki.cert(name),
+            "connect_private_key": pki.key(name), "enable_mtls": True}
+
+
+def tls_client(pki: Pki, endpoint: str, name: str) -> zenoh.Session:
+    """A client session over TLS with the certificate `name`, no scouting."""
+    cfg = zenoh.Config()
+    for key, value in {
+        "mode": "client",
+        "connect/endpoints": [endpoint],
+        "listen/endpoints": [],
+        "scouting/multicast/enabled": False,
+        "scouting/gossip/enabled": False,
+        "transport/link/tls": client_tls(pki, name),
+    }.items():
+        cfg.insert_json5(key, json.dumps(value))
+    return zenoh.open(cfg)
+
+
+class Seen:
+    """(key, kind, payload) of every sample a callback got; zenoh calls it on its threads."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple[str, str, str]] = []
+        self._cv = threading.Condition()
+
+    def __call__(self, sample: zenoh.Sample) -> None:
+        kind = "put" if sample.kind == zenoh.SampleKind.PUT else "delete"
+        with self._cv:
+            self.items.append((str(sample.key_expr), kind, sample.payload.to_bytes().decode(errors="replace")))
+            self._cv.notify_all()
+
+    def has(self, key: str | None = None, kind: str | None = None, payload: str | None = None) -> bool:
+        with self._cv:
+            return any((key is None or k == key) and (kind is None or s == kind) and (payload is None or p == payload)
+                       for k, s, p in self.items)
+
+    def wait(self, **match: str) -> None:
+        with self._cv:
+            assert self._cv.wait_for(lambda: self.has(**match), WAIT), f"never arrived: {match}; seen {self.items[-10:]}"
+
+
+def wait_matching(pub: zenoh.Publisher) -> None:
+    """Until the router has told the publisher of a matching subscriber."""
+    matched = threading.Event()
+    listener = pub.declare_matching_listener(lambda st: matched.set() if st.matching else None)
+    try:
+        if not pub.matching_status.matching:
+            assert matched.wait(WAIT), f"no subscriber ever matched {pub.key_expr}"
+    finally:
+        listener.undeclare()
+
+
+_tags = itertools.count()
+
+
+def tag(what: str) -> str:
+    return f"{what}-{next(_tags)}"
+
+
+class Net:
+    """One router and its clients: `v1`, `v1b` (vessel-1's output and input sessions),
+    `v2`, `d1` (a dashboard acting), `d2` (a dashboard watching everything) and `d3` (a
+    dashboard asking the router for liveliness tokens: a session that follows liveliness
+    itself may answer such a get from what it has been told so far).
+
+    Watchers declared once: d2 on `vessel/**` (samples and liveliness), v1b on its
+    forecasts, v2 on its forecasts; each is known to the router before a test runs.
+    """
+
+    NAMES = {"v1": "vessel-1", "v1b": "vessel-1", "v2": "vessel-2", "d1": "fleet-dashboard", "d2": "fleet-dashboard",
+             "d3": "fleet-dashboard"}
+
+    def __init__(self, pki: Pki, endpoint: str) -> None:
+        self.endpoint = endpoint
+        self.s: dict[str, zenoh.Session] = {}
+        self.keep: list[Any] = []
+        self.d2_data, self.d2_alive, self.v1b_env, self.v2_data = Seen(), Seen(), Seen(), Seen()
+        try:
+            self._setup(pki)
+        except BaseException:
+            self.close()
+            raise
+
+    def _setup(self, pki: Pki) -> None:
+        for short, cert in self.NAMES.items():
+            self.s[short] = tls_client(pki, self.endpoint, cert)
+        v1, v1b, v2, d2 = self.s["v1"], self.s["v1b"], self.s["v2"], self.s["d2"]
+        self.keep += [
+            d2.liveliness().declare_subscriber("vessel/**", self.d2_alive, history=True),
+            d2.declare_subscriber("vessel/**", self.d2_data),
+        ]
+        ready = v1.declare_publisher("vessel/vessel-1/est/ready")
+        wait_matching(ready)  # d2's declarations (both: one link, in order) are at the router
+        ready.undeclare()
+        self.keep += [
+            v1b.declare_subscriber("vessel/vessel-1/env/current", self.v1b_env),
+            v2.declare_subscriber("vessel/vessel-2/env/current", self.v2_data),
+        ]
+        self.sync("v1b")
+        self.sync("v2")
+
+    def sync(self, who: str) -> None:
+        """An allowed put of `who` seen by d2: whatever `who` sent before is handled."""
+        marker = tag("sync")
+        if who.startswith("d"):
+            key = "vessel/vessel-1/env/current"
+        else:
+            key = f"vessel/{self.NAMES[who]}/est/sync"
+        self.s[who].put(key, marker)
+        self.d2_data.wait(key=key, payload=marker)
+
+    def reach(self, vessel: str) -> None:
+        """A forecast from d1 seen by the vessel's forecast watcher (v1b or v2)."""
+        marker = tag("forecast")
+        self.s["d1"].put(f"vessel/{vessel}/env/current", marker)
+        (self.v1b_env if vessel == "vessel-1" else self.v2_data).wait(payload=marker)
+
+    def close(self) -> None:
+        for d in self.keep:
+            d.undeclare()
+        for s in self.s.values():
+            s.close()
+
+
+def _net(pki: Pki, tmp: Path, acl: bool) -> Iterator[Net]:
+    endpoint = f"tls/127.0.0.1:{_free_port()}"
+    router = RouterProc(router_config(pki, endpoint, tmp, acl=acl))
+    try:
+        net = Net(pki, endpoint)
+        try:
+            yield net
+        finally:
+            net.close()
+    finally:
+        router.stop()
+
+
+@pytest.fixture(scope="module")
+def acl_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
+    """The shipped access control."""
+    yield from _net(pki, tmp_path_factory.mktemp("acl"), acl=True)
+
+
+@pytest.fixture(scope="module")
+def open_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
+    """The shipped file with access control switched off: the probes' own check."""
+    yield from _net(pki, tmp_path_factory.mktemp("open"), acl=False)
+
+
+def _replies(session: zenoh.Session, selector: str) -> list[tuple[str, str]]:
+    """Every reply to a get; it returns once every queryable the router reached is done."""
+    return [(str(r.ok.key_expr), r.ok.payload.to_string()) for r in session.get(selector, timeout=WAIT)
+            if r.ok is not None]
+
+
+def _tokens(net: Net, selector: str = "vessel/**") -> set[str]:
+    """The liveliness tokens the router holds (asked by d3, which holds and follows none)."""
+    return {str(r.ok.key_expr) for r in net.s["d3"].liveliness().get(selector, timeout=WAIT) if r.ok is not None}
+
+
+# -- what is allowed works ------------------------------------------------------------------
+def test_vessel_publishes_its_data_to_dashboards(acl_net: Net) -> None:
+    """Through declared publishers, as edged's output: they send only to subscribers the
+    router told them of."""
+    for key in ("vessel/vessel-1/est/stw", "vessel/vessel-1/health", "vessel/vessel-1/meas/heading/gyro"):
+        pub = acl_net.s["v1"].declare_publisher(key)
+        try:
+            wait_matching(pub)
+            marker = tag("data")
+            pub.put(marker)
+            acl_net.d2_data.wait(key=key, payload=marker)
+        finally:
+            pub.undeclare()
+
+
+def test_dashboard_publishes_a_forecast_to_its_vessel(acl_net: Net) -> None:
+    pub = acl_net.s["d1"].declare_publisher("vessel/vessel-1/env/current")
+    try:
+        wait_matching(pub)  # vessel-1's forecast subscription (the input's key)
+        marker = tag("forecast")
+        pub.put(marker)
+        acl_net.v1b_env.wait(key="vessel/vessel-1/env/current", payload=marker)
+    finally:
+        pub.undeclare()
+
+
+def test_dashboard_queries_a_vessel(acl_net: Net) -> None:
+    """A get on the vessel's prefix, and `edged fleet`'s gets across the fleet."""
+    marker = tag("latest")
+    est, health = "vessel/vessel-1/est/stw", "vessel/vessel-1/health"
+
+    def answer(q: zenoh.Query) -> None:
+        for key in (est, health):
+            if zenoh.KeyExpr(key).intersects(q.key_expr):
+                q.reply(key, marker)
+
+    qable = acl_net.s["v1"].declare_queryable("vessel/vessel-1/**", answer)
+    try:
+        acl_net.sync("v1")  # the queryable is at the router
+        d2 = acl_net.s["d2"]
+        assert {(est, marker), (health, marker)} <= set(_replies(d2, "vessel/vessel-1/**"))
+        assert (health, marker) in _replies(d2, "vessel/*/health")
+        assert (est, marker) in _replies(d2, "vessel/*/est/**")
+    finally:
+        qable.undeclare()
+
+
+def test_vessel_liveliness_is_seen_by_dashboards(acl_net: Net) -> None:
+    key = "vessel/vessel-1/alive"
+    token = acl_net.s["v1"].liveliness().declare_token(key)
+    try:
+        acl_net.d2_alive.wait(key=key, kind="put")
+        assert key in _tokens(acl_net, "vessel/*/alive")
+    finally:
+        token.undeclare()
+    acl_net.d2_alive.wait(key=key, kind="delete")
+
+
+HEALTHY = {"t": T0, "inputs": {"gnss1": {"state": "connected", "ok": True}},
+           "outputs": {"zenoh": {"state": "running", "ok": True}}}
+
+
+def test_edged_output_and_fleet_work_through_the_acl(acl_net: Net, pki: Pki, make_ctx: Any, tmp_path: Path) -> None:
+    """edged's own output as vessel-2 and `edged fleet` as a dashboard, both over TLS."""
+    c = make_ctx("zenoh", "vessel-2")
+    out = ZenohOutput(ZenohOutputConfig.model_validate({
+        "type": "zenoh", "mode": "client", "listen": [], "connect": [acl_net.endpoint],
+        "tls": client_tls(pki, "vessel-2"),
+    }), c.ctx)
+    fleet_cfg = tmp_path / "fleet.json5"
+    fleet_cfg.write_text(json.dumps({
+        "mode": "client", "connect": {"endpoints": [acl_net.endpoint]},
+        "transport": {"link": {"tls": client_tls(pki, "fleet-dashboard")}},
+    }))
+
+    async def scenario() -> tuple[int, str]:
+        await out.open()
+        try:
+            await asyncio.wait_for(out.connected.wait(), WAIT)
+            out.write([Estimate("stw", "stw", T0, {"stw": 5.5}), HealthRecord(T0, HEALTHY)])
+            # The token is declared after the queryable: once it is seen, both are at the router.
+            await asyncio.to_thread(acl_net.d2_alive.wait, key="vessel/vessel-2/alive", kind="put")
+            buf = io.StringIO()
+            args = argparse.Namespace(zenoh_config=str(fleet_cfg), out=buf, refreshes=1, interval=None, duration=None)
+            rc = await asyncio.to_thread(fleet_main, args)
+            return rc, buf.getvalue()
+        finally:
+            await out.close()
+
+    rc, text = asyncio.run(scenario())
+    assert rc == 0, text
+    (row,) = [ln for ln in text.splitlines() if ln.startswith("vessel-2 ")]
+    assert row.split()[3] == "5.50" and row.split()[-1] == "ok", text
+
+
+@pytest.mark.parametrize(("cert", "connects"), [("site", True), ("another CA", False), ("none", False)])
+def test_only_a_site_certificate_connects(acl_net: Net, pki: Pki, cert: str, connects: bool) -> None:
+    tls: dict[str, Any] = {"root_ca_certificate": str(pki.ca)}
+    if cert != "none":
+        name = "fleet-dashboard" if cert == "site" else "rogue"  # both with that common name
+        tls.update(connect_certificate=pki.cert(name), connect_private_key=pki.key(name), enable_mtls=True)
+    cfg = zenoh.Config()
+    cfg.insert_json5("mode", '"client"')
+    cfg.insert_json5("connect/endpoints", json.dumps([acl_net.endpoint]))
+    cfg.insert_json5("scouting/multicast/enabled", "false")
+    cfg.insert_json5("transport/link/tls", json.dumps(tls))
+    if connects:
+        zenoh.open(cfg).close()
+    else:
+        with pytest.raises(zenoh.ZError, match="Unable to connect"):
+            zenoh.open(cfg).close()
+
+
+# -- what is forbidden never arrives --------------------------------------------------------
+# Each case tries a forbidden thing and names what of it arrived anywhere it could be seen.
+Case = Callable[[Net], "tuple[list[str], list[str]]"]
+
+
+def dashboard_puts_vessel_data(net: Net) -> tuple[list[str], list[str]]:
+    keys = ["vessel/vessel-1/est/stw", "vessel/vessel-1/health", "vessel/vessel-1/meas/heading/gyro",
+            "vessel/vessel-1/alive"]
+    forged = tag("forged")
+    for key in keys:
+        net.s["d1"].put(key, forged)
+    net.sync("d1")
+    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged)]
+
+
+def dashboard_deletes_vessel_data(net: Net) -> tuple[list[str], list[str]]:
+    keys = [f"vessel/vessel-1/est/{tag('gone')}", f"vessel/vessel-1/meas/heading/{tag('gone')}"]
+    for key in keys:
+        net.s["d1"].delete(key)
+    net.sync("d1")
+    return keys, [k for k in keys if net.d2_data.has(key=k, kind="delete")]
+
+
+def dashboard_holds_a_liveliness_token(net: Net) -> tuple[list[str], list[str]]:
+    keys = [f"vessel/{tag('ghost')}/alive", f"vessel/vessel-1/{tag('token')}"]
+    tokens = [net.s["d1"].liveliness().declare_token(k) for k in keys]
+    try:
+        net.sync("d1")
+        alive = _tokens(net)
+    finally:
+        for t in tokens:
+            t.undeclare()
+    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k)]
+
+
+def dashboard_answers_queries(net: Net) -> tuple[list[str], list[str]]:
+    forged, hits = tag("forged"), []
+
+    def answer(q: zenoh.Query) -> None:
+        hits.append(str(q.key_expr))
+        q.reply("vessel/vessel-1/est/stw", forged)
+
+    qable = net.s["d1"].declare_queryable("vessel/vessel-1/**", answer)
+    try:
+        net.sync("d1")  # the queryable's declaration is handled
+        replies = _replies(net.s["d2"], "vessel/vessel-1/**")
+    finally:
+        qable.undeclare()
+    return ["queried", "replied"], (["queried"] if hits else []) + (["replied"] if (
+        "vessel/vessel-1/est/stw", forged) in replies else [])
+
+
+def vessel_puts_another_vessels_data(net: Net) -> tuple[list[str], list[str]]:
+    keys = ["vessel/vessel-2/est/stw", "vessel/vessel-2/health", "vessel/vessel-2/meas/heading/gyro"]
+    forged = tag("forged")
+    for key in keys:
+        net.s["v1"].put(key, forged)
+    net.sync("v1")
+    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged)]
+
+
+def vessel_puts_its_own_forecast(net: Net) -> tuple[list[str], list[str]]:
+    """Forecasts come from shore, wildcards included."""
+    keys = ["vessel/vessel-1/env/current", "vessel/vessel-1/*/current", "vessel/vessel-1/**", "vessel/*/env/current"]
+    forged = tag("forged")
+    for key in keys:
+        net.s["v1"].put(key, forged)
+    net.sync("v1")  # d2 would have them now, and the router would have passed them on
+    net.reach("vessel-1")
+    net.reach("vessel-2")
+    watchers = (net.d2_data, net.v1b_env, net.v2_data)
+    return keys, [k for k in keys if any(w.has(key=k, payload=forged) for w in watchers)]
+
+
+def _payloads(sub: Any) -> list[str]:
+    """What a FifoChannel subscriber holds now. A channel is filled on zenoh's receiving
+    thread in the order samples came; callbacks run on a thread each, so only within one
+    callback is that order kept."""
+    out = []
+    while (sample := sub.try_recv()) is not None:
+        out.append(sample.payload.to_string())
+    return out
+
+
+def vessel_reads_another_vessels_data(net: Net) -> tuple[list[str], list[str]]:
+    keys = ["vessel/**", "vessel/vessel-1/**", "vessel/vessel-1/est/stw"]
+    marker = tag("vessel-1-data")
+    subs = {k: net.s["v2"].declare_subscriber(k, zenoh.handlers.FifoChannel(1024)) for k in keys}
+    try:
+        net.sync("v2")  # its subscriptions are handled
+        net.s["v1"].put("vessel/vessel-1/est/stw", marker)
+        net.d2_data.wait(key="vessel/vessel-1/est/stw", payload=marker)  # passed on to all it may reach
+        net.reach("vessel-2")  # later on the same link to vessel-2
+        return keys, [k for k, sub in subs.items() if marker in _payloads(sub)]
+    finally:
+        for sub in subs.values():
+            sub.undeclare()
+
+
+def vessel_receives_another_vessels_forecast(net: Net) -> tuple[list[str], list[str]]:
+    key = "vessel/vessel-1/env/current"
+    sub = net.s["v2"].declare_subscriber(key, zenoh.handlers.FifoChannel(1024))
+    try:
+        net.sync("v2")
+        forecast = tag("not-for-vessel-2")
+        net.s["d1"].put(key, forecast)
+        net.reach("vessel-2")  # after it, from the same dashboard to the same vessel
+        return [key], [key] if forecast in _payloads(sub) else []
+    finally:
+        sub.undeclare()
+
+
+def vessel_holds_a_foreign_liveliness_token(net: Net) -> tuple[list[str], list[str]]:
+    keys = [f"vessel/{tag('ghost')}/alive", f"vessel/vessel-1/{tag('token')}"]
+    tokens = [net.s["v1"].liveliness().declare_token(k) for k in keys]
+    try:
+        net.sync("v1")
+        alive = _tokens(net)
+    finally:
+        for t in tokens:
+            t.undeclare()
+    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k)]
+
+
+def vessel_answers_for_another_vessel(net: Net) -> tuple[list[str], list[str]]:
+    forged, hits = tag("forged"), []
+
+    def answer(q: zenoh.Query) -> None:
+        hits.append(str(q.key_expr))
+        q.reply("vessel/vessel-2/est/stw", forged)
+
+    qable = net.s["v1"].declare_queryable("vessel/vessel-2/**", answer)
+    try:
+        net.sync("v1")
+        replies = _replies(net.s["d2"], "vessel/vessel-2/**")
+    finally:
+        qable.undeclare()
+    return ["queried", "replied"], (["queried"] if hits else []) + (["replied"] if (
+        "vessel/vessel-2/est/stw", forged) in replies else [])
+
+
+def vessel_replies_outside_its_data(net: Net) -> tuple[list[str], list[str]]:
+    """Its queryable is allowed; replies with a forecast or another vessel's key are not."""
+    forged = tag("forged")
+    keys = ["vessel/vessel-1/env/current", "vessel/vessel-2/est/stw"]
+    legit = f"vessel/vessel-1/est/{tag('legit')}"
+
+    def answer(q: zenoh.Query) -> None:
+        for key in (*keys, legit):
+            q.reply(key, forged)
+
+    qable = net.s["v1"].declare_queryable("vessel/vessel-1/**", answer)
+    try:
+        net.sync("v1")
+        replies = _replies(net.s["d2"], "vessel/**")
+    finally:
+        qable.undeclare()
+    assert (legit, forged) in replies  # the same answer's allowed reply arrived
+    return keys, [k for k in keys if (k, forged) in replies]
+
+
+FORBIDDEN: dict[str, Case] = {
+    "dashboard-puts-vessel-data": dashboard_puts_vessel_data,
+    "dashboard-deletes-vessel-data": dashboard_deletes_vessel_data,
+    "dashboard-holds-a-liveliness-token": dashboard_holds_a_liveliness_token,
+    "dashboard-answers-queries": dashboard_answers_queries,
+    "vessel-puts-another-vessels-data": vessel_puts_another_vessels_data,
+    "vessel-puts-its-own-forecast": vessel_puts_its_own_forecast,
+    "vessel-reads-another-vessels-data": vessel_reads_another_vessels_data,
+    "vessel-receives-another-vessels-forecast": vessel_receives_another_vessels_forecast,
+    "vessel-holds-a-foreign-liveliness-token": vessel_holds_a_foreign_liveliness_token,
+    "vessel-answers-for-another-vessel": vessel_answers_for_another_vessel,
+    "vessel-replies-outside-its-data": vessel_replies_outside_its_data,
+}
+
+
+@pytest.mark.parametrize("access_control", ["on", "off"])
+@pytest.mark.parametrize("case", list(FORBIDDEN))
+def test_forbidden_never_arrives(case: str, access_control: str, request: pytest.FixtureRequest) -> None:
+    """With access control on nothing of it arrives; off, all of it (the probe works)."""
+    net = request.getfixturevalue("acl_net" if access_control == "on" else "open_net")
+    attempted, arrived = FORBIDDEN[case](net)
+    if access_control == "on":
+        assert arrived == [], f"{case}: arrived through the access control: {arrived}"
+    else:
+        assert arrived == attempted, f"{case}: the probe cannot see {sorted(set(attempted) - set(arrived))}"
+
+
+# -- on board: the local router with logins (deploy/zenoh/router-local-acl.json5) ---------
+LOCAL_ROUTER = REPO / "deploy" / "zenoh" / "router-local-acl.json5"
+LOCAL_DAEMON = REPO / "deploy" / "zenoh" / "edged-local-auth.json5"
+USERS = ("edged", "forecasts", "bridge")
+
+
+class Local:
+    """The shipped local router (its users file and listen endpoint replaced), and the
+    shipped daemon file with its password and the router's endpoint."""
+
+    def __init__(self, folder: Path) -> None:
+        import secrets
+
+        self.passwords = {u: secrets.token_hex(16) for u in USERS}
+        users = folder / "local-users.txt"
+        users.write_text("".join(f"{u}:{p}\n" for u, p in self.passwords.items()))
+        self.endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        cfg = json5.loads(LOCAL_ROUTER.read_text())
+        cfg["transport"]["auth"]["usrpwd"]["dictionary_file"] = str(users)
+        cfg["listen"]["endpoints"] = [self.endpoint]
+        (folder / "router.json5").write_text(json.dumps(cfg))
+        daemon = json5.loads(LOCAL_DAEMON.read_text())
+        daemon["transport"]["auth"]["usrpwd"]["password"] = self.passwords["edged"]
+        daemon["connect"]["endpoints"] = [self.endpoint]
+        self.daemon_file = folder / "edged-local-auth.json5"
+        self.daemon_file.write_text(json.dumps(daemon))
+        self.router = RouterProc(folder / "router.json5")
+
+    def session(self, user: str | None, password: str | None = None) -> zenoh.Session:
+        cfg = zenoh.Config()
+        cfg.insert_json5("mode", '"client"')
+        cfg.insert_json5("connect/endpoints", json.dumps([self.endpoint]))
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        cfg.insert_json5("scouting/gossip/enabled", "false")
+        if user is not None:
+            pw = self.passwords.get(user, "x") if password is None else password
+            cfg.insert_json5("transport/auth/usrpwd", json.dumps({"user": user, "password": pw}))
+        return zenoh.open(cfg)
+
+
+@pytest.fixture(scope="module")
+def local(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Local]:
+    lo = Local(tmp_path_factory.mktemp("local"))
+    try:
+        yield lo
+    finally:
+        lo.router.stop()
+
+
+@pytest.mark.parametrize(("user", "password", "connects"), [
+    ("bridge", None, True), (None, None, False), ("bridge", "wrong", False), ("mallory", "x", False),
+])
+def test_local_router_refuses_a_session_without_a_valid_login(local: Local, user: str | None,
+                                                             password: str | None, connects: bool) -> None:
+    if connects:
+        local.session(user, password).close()
+    else:
+        with pytest.raises(zenoh.ZError, match="Unable to connect"):
+            local.session(user, password).close()
+
+
+def test_local_daemon_takes_forecasts_from_the_forecasts_user_only(local: Local, make_ctx: Any) -> None:
+    """edged's output and input with `--zenoh-config edged-local-auth.json5` (as `edged run`
+    passes it) work through the local router; a logged-in reader cannot feed forecasts."""
+    from edged.records import Measurement, RawRecord
+    from edged_zenoh.input import ZenohInput, ZenohInputConfig
+
+    options = {"zenoh_config": str(local.daemon_file)}
+    co, ci = make_ctx("zenoh", "vessel-1", options), make_ctx("shore", "vessel-1", options)
+    out = ZenohOutput(ZenohOutputConfig.model_validate({"type": "zenoh"}), co.ctx)
+    inp = ZenohInput(ZenohInputConfig.model_validate({"type": "zenoh"}), ci.ctx)
+    forecasts, bridge = local.session("forecasts"), local.session("bridge")
+    env, alive = "vessel/vessel-1/env/current", Seen()
+    watch = bridge.liveliness().declare_subscriber("vessel/*/alive", alive, history=True)
+
+    async def scenario() -> None:
+        received: asyncio.Queue = asyncio.Queue()
+        ci.ctx.publish = received.put_nowait
+
+        async def forecast_arrives(drift: float) -> None:
+            while True:
+                r = await asyncio.wait_for(received.get(), WAIT)
+                if isinstance(r, RawRecord):
+                    assert json.loads(r.data)["drift"] == drift, f"a forecast nobody allowed: {r.data!r}"
+                if isinstance(r, Measurement) and r.kind == "current":
+                    assert r.values["drift"] == drift
+                    return
+
+        await out.open()
+        task = asyncio.create_task(inp.run())
+        try:
+            await asyncio.wait_for(out.connected.wait(), WAIT)
+            await asyncio.wait_for(inp.subscribed.wait(), WAIT)
+            out.write([Estimate("stw", "stw", T0, {"stw": 5.5})])
+            pub = forecasts.declare_publisher(env)
+            await asyncio.to_thread(wait_matching, pub)  # the input's subscription, the only one
+            pub.put(json.dumps({"t": T0, "set": 0.7, "drift": 0.5}))
+            await forecast_arrives(0.5)
+
+            # A logged-in reader's forecast, then its query: answered by the daemon's output
+            # once the router handled both, in that order (the forecast first).
+            await asyncio.to_thread(alive.wait, key="vessel/vessel-1/alive", kind="put")  # queryable declared
+            bridge.put(env, json.dumps({"t": T0, "set": 0.7, "drift": 9.0}))
+            replies = await asyncio.to_thread(_replies, bridge, "vessel/vessel-1/**")
+            assert [k for k, _ in replies] == ["vessel/vessel-1/est/stw"]
+            pub.put(json.dumps({"t": T0 + 60, "set": 0.7, "drift": 0.4}))  # after it on the input's link
+            await forecast_arrives(0.4)  # and nothing in between
+        finally:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+            await out.close()
+
+    try:
+        asyncio.run(scenario())
+    finally:
+        watch.undeclare()
+        forecasts.close()
+        bridge.close()
