@@ -250,6 +250,9 @@ class GatewayInput(InputPlugin):
                 await writer.drain()
                 h.count("bytes_sent", len(data))
 
+        clock = asyncio.get_running_loop().time
+        since = clock()  # when a frame was last decoded (or the session began)
+        frames = h.counters.get("frames", 0)
         try:
             if hs is not None:
                 await send(hs.open())
@@ -261,8 +264,15 @@ class GatewayInput(InputPlugin):
                 if not data:
                     raise LinkLost("closed by the gateway")
                 h.count("bytes", len(data))
-                link.stable()
                 self._emit(framing.feed(data))
+                if h.counters.get("frames", 0) != frames:  # the decoder took a frame
+                    frames, since = h.counters.get("frames", 0), clock()
+                    link.stable()
+                elif clock() - since > cfg.watchdog:
+                    # bytes but no frame (garbage, an endless line, the wrong baud
+                    # rate): as good as silence, not `connected` and ok (issue 32)
+                    raise LinkStale(f"no frame for {cfg.watchdog:g} s while bytes arrive "
+                                    f"(see the rejected.* counters)")
                 if hs is not None:
                     await send(hs.answer(data) + hs.tick())
         finally:

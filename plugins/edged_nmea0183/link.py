@@ -1,7 +1,8 @@
 """Keeps a live transport open: the watchdog of its reads on the core's reconnect loop.
 
 States and counters are those of every edged link (`edged.link`): `connecting` ->
-`connected` -> (`stale` when the watchdog fires) -> `disconnected` (also when the peer
+`connected` -> (`stale` when the watchdog fires: no bytes, or bytes but no line
+accepted, for `watchdog` seconds) -> `disconnected` (also when the peer
 goes away or the open fails) -> `connecting` ...; a regular file that ends is
 `finished`. Counters: `connects`, `connect_failures`, `disconnects`, `watchdog`, and
 `bytes` of this input.
@@ -65,6 +66,10 @@ class TransportLink:
         read = self.transport.read
         finite = self.transport.finite
         stable = self.link.stable
+        counters = h.counters
+        clock = asyncio.get_running_loop().time
+        accepted = counters.get("accepted", 0)
+        since = clock()  # when a line was last accepted (or the session began)
         while True:
             try:
                 # asyncio.timeout, not wait_for: on Python 3.11 wait_for returns the
@@ -79,5 +84,13 @@ class TransportLink:
                     return
                 raise LinkLost("closed by the peer")
             h.count("bytes", len(chunk))
-            stable()  # the link works: the next failure starts afresh
             on_data(chunk)
+            if counters.get("accepted", 0) != accepted:
+                accepted, since = counters.get("accepted", 0), clock()
+                stable()  # the link works: the next failure starts afresh
+            elif not finite and clock() - since > self.watchdog:
+                # Bytes, but no line worth having (an endless line, garbage, the wrong
+                # baud rate): as good as silence (issue 32: 5,815 too_long rejections
+                # while the input said `connected`, ok).
+                raise LinkStale(f"no line accepted for {self.watchdog:g} s while bytes arrive "
+                                f"(see the rejected.* counters)")

@@ -162,3 +162,62 @@ def test_an_over_long_line_is_dropped_to_its_end():
     assert lines.feed(b"X" * 100) == []
     assert lines.feed(b"junk,tail-of-long-line\n" + HDG + b"\n") == [HDG]
     assert health.counters["rejected.too_long"] == 1
+
+
+class _StaleHealth(ComponentHealth):
+    """Health whose first `stale` can be awaited (no sleep-polling)."""
+
+    __slots__ = ("stale", "history")
+
+    def __init__(self) -> None:
+        super().__init__("ydwg", "input", "n2k_gateway", ManualClock(NOW))
+        self.stale = asyncio.Event()
+        self.history: list[str] = []
+
+    def set_state(self, state: str, reason: str | None = None) -> None:
+        super().set_state(state, reason)
+        self.history.append(state)
+        if state == "stale":
+            self.stale.set()
+
+
+@pytest.mark.parametrize("garbage", [b"A" * 4096, b"not a gateway line at all\r\n" * 100])
+def test_bytes_that_bring_no_message_are_as_good_as_silence(garbage):
+    """Issue 32: garbage to an n2k_gateway over TCP left it `connected` and ok while it
+    rejected everything. Bytes with no message for `watchdog` seconds now make the link
+    `stale` (not ok) and reopen it, like silence."""
+    async def main() -> None:
+        conns: list[asyncio.StreamWriter] = []
+        stopping = asyncio.Event()
+
+        async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            conns.append(writer)
+            try:
+                while not stopping.is_set():
+                    writer.write(garbage)
+                    await writer.drain()
+                    await asyncio.sleep(0.01)  # the peer's pace, not a wait for an event
+            except (ConnectionError, OSError):
+                pass
+
+        server = await asyncio.start_server(serve, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        config = GatewayConfig(type="n2k_gateway", gateway="actisense_plain", transport="tcp", host="127.0.0.1",
+                               port=port, watchdog=0.3)
+        health = _StaleHealth()
+        sink = Sink()
+        ctx = PluginContext(name="ydwg", clock=ManualClock(NOW), health=health, publish=sink,
+                            decoder=GatewayInput.make_decoder("ydwg", config, health))
+        task = asyncio.create_task(GatewayInput(config, ctx, sleep=_no_wait).run())
+        try:
+            await asyncio.wait_for(health.stale.wait(), 10)
+        finally:
+            stopping.set()
+            await _stop(task)
+            for w in conns:
+                w.close()
+            server.close()
+        assert health.counters["watchdog"] >= 1 and health.counters.get("frames", 0) == 0 and not sink.measurements
+        assert health.history[:3] == ["connecting", "connected", "stale"]
+
+    asyncio.run(main())

@@ -237,3 +237,42 @@ def test_file_transport_reads_to_the_end_then_idles(event_health, tmp_path):
         assert event_health.counters["comments"] == 1
 
     asyncio.run(main())
+
+
+@pytest.mark.parametrize("garbage", [b"A" * 4096, b"$GPGGA,not,a,sentence*00\r\n" * 100])
+def test_bytes_that_bring_no_line_are_as_good_as_silence(event_health, garbage):
+    """Issue 32: an endless line counted 5,815 `rejected.too_long` while the input said
+    `connected` (ok). Bytes with nothing accepted for `watchdog` seconds now make the
+    link `stale` (not ok) and reopen it, like silence; lines accepted keep it up."""
+    async def main() -> None:
+        conns: list[asyncio.StreamWriter] = []
+        stopping = asyncio.Event()
+
+        async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            conns.append(writer)
+            try:
+                while not stopping.is_set():
+                    writer.write(garbage)
+                    await writer.drain()
+                    await asyncio.sleep(0.01)  # the peer's pace, not a wait for an event
+            except (ConnectionError, OSError):
+                pass
+
+        server = await asyncio.start_server(serve, "127.0.0.1", 0)
+        port = server.sockets[0].getsockname()[1]
+        plugin, _ = make(event_health, no_wait, transport="tcp", host="127.0.0.1", port=port, watchdog=0.3)
+        task = asyncio.create_task(plugin.run())
+        try:
+            await event_health.wait_state("stale")
+            await event_health.wait_state("connected", 2)  # reopened
+        finally:
+            stopping.set()
+            await stop(task)
+            for w in conns:
+                w.close()
+            server.close()
+        c = event_health.counters
+        assert c["watchdog"] >= 1 and c.get("accepted", 0) == 0
+        assert event_health.history[:4] == ["connecting", "connected", "stale", "disconnected"]
+
+    asyncio.run(main())
