@@ -339,7 +339,7 @@ class Replayer:
                     await self._yield()
             stats.records = n
             stats.t_last = clock.now() if t0 is not None else None
-            await rt.finish_workers()
+            await rt.finish_workers(patient=True)  # every record stepped, however long
             snap = rt.health_snapshot()
             publish(HealthRecord(snap["t"], snap))
             await self._yield(final=True)

@@ -455,12 +455,13 @@ class Runtime:
                 log.warning("event=output-not-ready output=%s reason=%r action='replaying anyway'", out.name, why)
                 out.health.count("not_ready_at_start")
 
-    async def finish_workers(self) -> None:
+    async def finish_workers(self, patient: bool = False) -> None:
         """Let every worker step what is queued for it and release its reorder window,
-        upstream before downstream, each within `shutdown_timeout`."""
+        upstream before downstream, each within `shutdown_timeout`; `patient` (the end
+        of a replay that ran to its end): as long as it makes progress, however long."""
         timeout = self.config.edged.shutdown_timeout
         for w in self.workers:
-            await w.finish(timeout)
+            await w.finish(timeout, patient=patient)
 
     def worker_backlog(self) -> int:
         """Largest backlog of a worker: replay waits on it instead of dropping."""

@@ -483,3 +483,24 @@ async def test_a_replay_waiting_for_room_wakes_when_the_full_worker_takes_a_batc
     await settle(rt)
     await rt.stop()
     assert len(streams(ListOutput.instances[0].records)["sum"]) == 60
+
+
+@pytest.mark.parametrize("placement, n, timeout", [("loop", 20, 0.1), ("loop", 60, 0.1)])
+async def test_a_replay_end_waits_for_a_slow_core_that_makes_progress(registry, placement, n, timeout):
+    """Issue 32: a replay's final drain was bounded by `shutdown_timeout`; on a loaded
+    machine a real log lost 128 inputs at its end. Here each step takes 10 ms: the
+    queue takes 2-6 x `shutdown_timeout`, and every record is stepped (a core that
+    steps nothing is still given up on: the daemon's own tests of stop-timeout)."""
+    cfg = parse_config({"edged": {"shutdown_timeout": timeout}, "outputs": {"rec": {"type": "list"}},
+                        "estimators": {"m": {"type": "mean", "worker": placement, "step_delay": 0.01}}}, registry)
+    rt = Runtime(cfg, registry, ManualClock(100.0), replay=True)
+    await rt.start()
+    for i in range(n):
+        rt.router.publish(yaw(100.0 + i * 0.1, 0.1))
+    await rt.finish_workers(patient=True)
+    await rt.stop()
+    w = rt.workers[0]
+    assert w.health.counters.get("steps") == n, dict(w.health.counters)
+    assert not any(k.startswith("dropped") for k in w.health.counters), dict(w.health.counters)
+    got = streams(ListOutput.instances[-1].records)
+    assert got["m"][-1][1]["n"] == n
