@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import BinaryIO, Callable, Iterator
 
-#: Bytes a log line may hold, its end included: twenty times the longest line of any
-#: format read here (an iKonvert sentence of a 223-byte fast-packet message, base64).
+#: Bytes a log line may hold, its line end not counted: twenty times the longest line
+#: of any format read here (an iKonvert sentence of a 223-byte fast-packet message).
 MAX_LINE = 8192
 #: The rejection reason a too-long line is counted under (`rejected.too_long`).
 TOO_LONG = "too_long"
@@ -23,8 +23,8 @@ SKIP_CHUNK = 1 << 16
 def numbered_lines(
     stream: BinaryIO, reject: Callable[[str, str], None], max_line: int = MAX_LINE
 ) -> Iterator[tuple[int, bytes]]:
-    """(line number from 1, line with its end) for each line of `stream` up to
-    `max_line` bytes; a longer one is `reject(TOO_LONG, message)`ed and skipped (it
+    """(line number from 1, line with its end) for each line of `stream` of at most
+    `max_line` bytes before its end; a longer one is `reject(TOO_LONG, message)`ed and skipped (it
     keeps its number, so that the lines after it are named as an editor counts them).
     Memory held: at most max(max_line, SKIP_CHUNK) + 1 bytes of the file."""
     readline = stream.readline

@@ -25,6 +25,7 @@ TESTS = (
     "tests/nmea0183/test_hardening_time.py::test_whatever_the_tag_times_every_record_time_is_finite_and_representable",
     "tests/can/test_hardening_candump.py::test_whatever_the_lines_every_record_is_sound",
     "tests/mcap/test_hardening_files.py::test_fuzz_the_replay_reading_path",
+    "tests/can/test_log_line_bound.py::test_fuzz_whatever_the_lines_every_reader_bounds_them",
 )
 
 # "- during generate phase (12.34 seconds):" ... "- 20000 passing, 0 failing, and 15 invalid

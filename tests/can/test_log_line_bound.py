@@ -81,3 +81,33 @@ def test_an_endless_line_is_counted_skipped_and_costs_no_memory(fmt, size):
     assert len(records) == 10, (fmt, len(records), dict(health.counters))
     assert health.counters.get("rejected.too_long") == 1, dict(health.counters)
     assert peak < 4 << 20, peak  # bytes held at once, whatever the line's length
+
+
+# -- fuzz: whatever the lines, no reader raises and every over-long one is counted once --
+import os  # noqa: E402
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+EXAMPLES = int(os.environ.get("EDGED_FUZZ_EXAMPLES", "200"))
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+_LINE = st.one_of(
+    st.sampled_from(list(GOOD.values())),  # a good line of some format
+    st.binary(max_size=300).map(lambda b: b.replace(b"\n", b"") + b"\n"),  # garbage, one line
+    st.integers(MAX_LINE - 2, MAX_LINE + 3).map(lambda n: b"A" * n + b"\n"),  # around the bound
+    st.integers(MAX_LINE + 4, 3 * MAX_LINE).map(lambda n: b"$" * n + b"\n"),  # over it
+)
+
+
+@FUZZ
+@given(fmt=st.sampled_from(sorted(READERS)), lines=st.lists(_LINE, max_size=12), tail=st.binary(max_size=40))
+def test_fuzz_whatever_the_lines_every_reader_bounds_them(fmt, lines, tail):
+    health = ComponentHealth("f", "input", fmt, ManualClock(0.0))
+    data = b"".join(lines) + tail.replace(b"\n", b"")
+    records = list(READERS[fmt].open(io.BufferedReader(io.BytesIO(data)), "f", health, ReplayOptions(date="2024-11-23")))
+    too_long = sum(1 for ln in lines if len(ln) - 1 > MAX_LINE)  # its end not counted
+    if fmt != "nmea0183":  # NMEA 0183's own splitter bounds at 1024 and counts its own way
+        assert health.counters.get("rejected.too_long", 0) == too_long
+    assert all(len(r.data) <= MAX_LINE for r in records)
