@@ -313,7 +313,6 @@ def _output_line(o: OutputHost, state: str) -> str:
     return f"output {o.name}: {', '.join(parts)}; {said}{err}"
 
 
-_utc = utc_iso
 
 
 def print_summary(
@@ -330,7 +329,7 @@ def print_summary(
     `stopped`); `interrupted`: the signal that stopped the replay before its end."""
     states = states or {}
     if interrupted is not None:
-        at = _utc(rt.clock.now()) if stats.t_first is not None else "its start"
+        at = utc_iso(rt.clock.now()) if stats.t_first is not None else "its start"
         print(f"replay interrupted at {at} (data time) by {interrupted}", file=out)
         if stats.t_first is not None:
             print(f"replayed {rt.clock.now() - stats.t_first:.1f} s of data", file=out)

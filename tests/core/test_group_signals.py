@@ -19,13 +19,11 @@ import threading
 from pathlib import Path
 
 import pytest
+from nmea_text import sentence
 
 
-def _cs(s: str) -> str:
-    x = 0
-    for ch in s:
-        x ^= ord(ch)
-    return f"${s}*{x:02X}\r\n"
+def _cs(body: str) -> str:
+    return sentence(body) + "\r\n"
 
 
 def _free_udp_port() -> int:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from nmea_text import sentence
 
 from edged.cli import build_parser, main
 
@@ -40,12 +41,7 @@ def test_a_vessel_id_that_is_no_key_segment_says_why(vid, tmp_path: Path, capsys
 
 
 def _nmea_log(path: Path, seconds: int) -> Path:
-    def cs(s: str) -> str:
-        x = 0
-        for ch in s:
-            x ^= ord(ch)
-        return f"${s}*{x:02X}"
-    path.write_text("".join(cs(f"GPGGA,1200{k:02d}.00,5400.000,N,01000.000,E,1,08,0.9,5.0,M,40.0,M,,") + "\n"
+    path.write_text("".join(sentence(f"GPGGA,1200{k:02d}.00,5400.000,N,01000.000,E,1,08,0.9,5.0,M,40.0,M,,") + "\n"
                             for k in range(seconds)))
     return path
 

@@ -10,15 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from nmea_text import sentence
 
 from edged.cli import main
-
-
-def _cs(s: str) -> str:
-    x = 0
-    for ch in s:
-        x ^= ord(ch)
-    return f"${s}*{x:02X}"
 
 
 def _hms(sec: int) -> str:
@@ -28,9 +22,9 @@ def _hms(sec: int) -> str:
 def _log(path: Path, first: int, second: int, back: int) -> Path:
     """`first` s of 1 Hz RMC from 12:00:00, then `second` s starting `back` s earlier
     than where the first part ended."""
-    lines = [_cs(f"GPRMC,{_hms(12 * 3600 + k)},A,5400.000,N,01000.000,E,0.0,0.0,041226,,,A") for k in range(first)]
+    lines = [sentence(f"GPRMC,{_hms(12 * 3600 + k)},A,5400.000,N,01000.000,E,0.0,0.0,041226,,,A") for k in range(first)]
     start = 12 * 3600 + first - back
-    lines += [_cs(f"GPRMC,{_hms(start + k)},A,5400.000,N,01000.000,E,0.0,0.0,041226,,,A") for k in range(second)]
+    lines += [sentence(f"GPRMC,{_hms(start + k)},A,5400.000,N,01000.000,E,0.0,0.0,041226,,,A") for k in range(second)]
     path.write_text("\n".join(lines) + "\n")
     return path
 
