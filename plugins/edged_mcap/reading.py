@@ -12,7 +12,9 @@ when its declared length is within `max_record` (1 GiB) and it is then read in p
 so that a length beyond the end of the file costs what the file holds, not what the
 field claims; the record's own fields are parsed from those bytes only, never from
 the file; a chunk is decompressed only when its declared uncompressed size is within
-`max_record`, and never into more than it declared. A length that cannot be true
+`max_record`, and never into more than it declared; one that inflates to more than
+`INFLATE_WHOLE` (16 MiB) is read in pieces, so that a few KB on disk that inflate to a
+GiB cost a piece and a record, not the GiB. A length that cannot be true
 stops the reading there (`ReadReport.error`, "damaged: ..."): what came before it
 has been read. A length beyond the end of the file cannot be told from a write cut
 short: it ends the file as truncation.
@@ -167,31 +169,37 @@ def _name(opcode: int) -> str:
 
 
 # -- chunks -----------------------------------------------------------------------------
-def _pieces(read: Callable[[int], bytes], size: int) -> bytes:
-    """Decompressed output, `size` bytes exactly, asking `read(n)` for pieces."""
-    parts: list[bytes] = []
+#: Chunks that inflate to at most this are decompressed whole, checked, then read. A
+#: larger chunk (the recorder writes 1 MiB ones; another writer may claim up to
+#: `max_record`) is read twice in pieces: once to check its size, CRC and records without
+#: keeping them, once to hand them out. What is held at once is then a piece and the
+#: record being read, however much the chunk inflates to.
+INFLATE_WHOLE = 16 << 20
+
+
+def _pieces(read: Callable[[int], bytes], size: int) -> Iterator[bytes]:
+    """The decompressed output in pieces of at most `_STEP`; `size` bytes in all or `_Damage`."""
     total = 0
     while True:
         b = read(min(_STEP, size + 1 - total))
         if not b:
             break
-        parts.append(b)
         total += len(b)
         if total > size:
             raise _Damage(f"decompresses to more than its declared {size} bytes")
+        yield b
     if total != size:
         raise _Damage(f"decompresses to {total} bytes, not its declared {size}")
-    return b"".join(parts)
 
 
-def _zstd(data: bytes, size: int) -> bytes:
+def _zstd(data: bytes, size: int) -> Iterator[bytes]:
     import zstandard
 
     with zstandard.ZstdDecompressor().stream_reader(data) as r:
-        return _pieces(r.read, size)
+        yield from _pieces(r.read, size)
 
 
-def _lz4(data: bytes, size: int) -> bytes:
+def _lz4(data: bytes, size: int) -> Iterator[bytes]:
     import lz4.frame
 
     d = lz4.frame.LZ4FrameDecompressor()
@@ -206,69 +214,131 @@ def _lz4(data: bytes, size: int) -> bytes:
             raise _Damage("lz4 data ends early")
         return out
 
-    return _pieces(read, size)
+    yield from _pieces(read, size)
 
 
-_DECOMPRESS: dict[str, Callable[[bytes, int], bytes]] = {"zstd": _zstd, "lz4": _lz4}
+def _stored(data: bytes, size: int) -> Iterator[bytes]:
+    if len(data) != size:
+        raise _Damage(f"holds {len(data)} bytes, not its declared {size}")
+    yield data
 
 
-def _chunk_data(chunk: Chunk, max_record: int) -> bytes:
+_DECOMPRESS: dict[str, Callable[[bytes, int], Iterator[bytes]]] = {"zstd": _zstd, "lz4": _lz4, "": _stored}
+
+
+def _inflate(chunk: Chunk, max_record: int) -> Iterator[bytes]:
+    """The chunk's records' bytes in pieces, checked against its declared size and CRC."""
     size = chunk.uncompressed_size
     if size > max_record:
         raise _Damage(f"declares {size} bytes uncompressed (limit {max_record})")
-    if chunk.compression == "":
-        data = chunk.data
-    else:
-        decompress = _DECOMPRESS.get(chunk.compression)
-        if decompress is None:
-            raise _Damage(f"unsupported compression {chunk.compression!r}")
-        data = decompress(chunk.data, size)
-    if chunk.uncompressed_crc != 0:
-        crc = zlib.crc32(data)
-        if crc != chunk.uncompressed_crc:
-            raise _Damage(f"CRC {crc:#010x} instead of {chunk.uncompressed_crc:#010x}")
-    return data
+    decompress = _DECOMPRESS.get(chunk.compression)
+    if decompress is None:
+        raise _Damage(f"unsupported compression {chunk.compression!r}")
+    crc = 0
+    for piece in decompress(chunk.data, size):
+        crc = zlib.crc32(piece, crc)
+        yield piece
+    if chunk.uncompressed_crc != 0 and crc != chunk.uncompressed_crc:
+        raise _Damage(f"CRC {crc:#010x} instead of {chunk.uncompressed_crc:#010x}")
 
 
 _MESSAGE_HEAD = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 _RECORD_HEAD = struct.Struct("<BQ")
 
 
-def _breakup(data: bytes) -> list[McapRecord]:
-    """The schema, channel and message records of a chunk's data, each within its length."""
-    out: list[McapRecord] = []
+def _complete(data: bytes | bytearray, pos: int, out: list[McapRecord] | None) -> int:
+    """Parse the complete records of `data` from `pos` on (into `out`, or only check
+    them when None); the offset of the first record that is not complete."""
     end = len(data)
-    pos = 0
     head = _RECORD_HEAD.size
-    while pos < end:
-        if end - pos < head:
-            raise _Damage(f"a record header is cut at chunk byte {pos}")
+    while end - pos >= head:
         opcode, length = _RECORD_HEAD.unpack_from(data, pos)
         start = pos + head
         stop = start + length
         if stop > end:
-            raise _Damage(f"{_name(opcode)} record at chunk byte {pos} claims {length} bytes, {end - start} remain")
+            break
         if opcode == Opcode.MESSAGE:
             if length < _MESSAGE_HEAD.size:
                 raise _Damage(f"MESSAGE record at chunk byte {pos} is {length} bytes long")
-            channel_id, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
-            out.append(Message(channel_id, log_time, data[start + _MESSAGE_HEAD.size : stop], publish_time, sequence))
+            if out is not None:
+                channel_id, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
+                out.append(Message(channel_id, log_time, bytes(data[start + _MESSAGE_HEAD.size : stop]),
+                                   publish_time, sequence))
         elif opcode == Opcode.CHANNEL:
-            out.append(Channel.read(_Body(data[start:stop])))
+            rec: McapRecord = Channel.read(_Body(bytes(data[start:stop])))
+            if out is not None:
+                out.append(rec)
         elif opcode == Opcode.SCHEMA:
-            out.append(Schema.read(_Body(data[start:stop])))
+            rec = Schema.read(_Body(bytes(data[start:stop])))
+            if out is not None:
+                out.append(rec)
         pos = stop
-    return out
+    return pos
 
 
-def _chunk_records(chunk: Chunk, report: ReadReport, max_record: int) -> list[McapRecord]:
+def _cut(data: bytes | bytearray, pos: int, offset: int) -> _Damage:
+    """The damage of a chunk whose data ends inside the record at `pos`."""
+    end = len(data)
+    head = _RECORD_HEAD.size
+    if end - pos < head:
+        return _Damage(f"a record header is cut at chunk byte {offset + pos}")
+    opcode, length = _RECORD_HEAD.unpack_from(data, pos)
+    return _Damage(f"{_name(opcode)} record at chunk byte {offset + pos} claims {length} bytes, "
+                   f"{end - pos - head} remain")
+
+
+def _walk(chunk: Chunk, max_record: int, keep: bool) -> Iterator[list[McapRecord]]:
+    """The chunk's records, a list per piece of data (empty lists when not `keep`).
+
+    Only the bytes of the record that spans two pieces are carried over: a piece and
+    that record is what is held at once.
+    """
+    carry = bytearray()
+    offset = 0  # chunk byte of carry[0]
+    for piece in _inflate(chunk, max_record):
+        if carry:
+            carry += piece
+            data: bytes | bytearray = carry
+        else:
+            data = piece
+        out: list[McapRecord] | None = [] if keep else None
+        pos = _complete(data, 0, out)
+        offset += pos
+        if data is carry:
+            del carry[:pos]  # a record that grows over many pieces is not copied again
+        elif pos < len(data):
+            carry = bytearray(memoryview(data)[pos:])
+        yield out or []
+    if carry:
+        raise _cut(carry, 0, offset)
+
+
+def _chunk_records(chunk: Chunk, report: ReadReport, max_record: int) -> Iterator[McapRecord]:
+    """The records of a chunk that reads whole; a damaged one is counted and skipped.
+
+    A chunk that inflates to at most `INFLATE_WHOLE` is read once and kept until checked;
+    a larger one is checked by a first reading that keeps nothing (twice the inflating,
+    a bounded memory).
+    """
+    whole = chunk.uncompressed_size <= INFLATE_WHOLE
     try:
-        recs = _breakup(_chunk_data(chunk, max_record))
+        if whole:
+            kept = [r for part in _walk(chunk, max_record, keep=True) for r in part]
+        else:
+            for _ in _walk(chunk, max_record, keep=False):
+                pass
     except Exception as exc:  # CRC, decompression, a broken record inside: skip the chunk
         _bad_chunk(report, exc)
-        return []
+        return
     report.chunks += 1
-    return recs
+    if whole:
+        yield from kept
+        return
+    try:
+        for part in _walk(chunk, max_record, keep=True):
+            yield from part
+    except Exception as exc:  # not after a first reading that passed; counted if ever
+        _bad_chunk(report, exc)
 
 
 def _bad_chunk(report: ReadReport, exc: Exception) -> None:
