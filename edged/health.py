@@ -141,20 +141,34 @@ class HealthRegistry:
 
     def __init__(self, clock: Clock) -> None:
         self.clock = clock
+        #: Every component there has been (the replay's summary reads them all).
         self.components: dict[str, ComponentHealth] = {}
+        #: Those in the snapshot: all but the retired.
+        self._live: dict[str, ComponentHealth] = {}
 
     def component(self, name: str, role: str, type_: str = "") -> ComponentHealth:
+        """The component's health, made on first use; one retired comes back."""
         key = f"{role}:{name}"
-        h = self.components.get(key)
+        h = self._live.get(key)
         if h is None:
-            h = ComponentHealth(name, role, type_, self.clock)
-            self.components[key] = h
+            h = self.components.get(key)
+            if h is None:
+                h = ComponentHealth(name, role, type_, self.clock)
+                self.components[key] = h
+            self._live[key] = h
         return h
+
+    def retire(self, name: str, role: str) -> None:
+        """Leave a component that has ended out of the snapshots (a replayed file read
+        to its end): a replay of thousands of files would otherwise publish every
+        one of them every second, a cost that grows with the square of the files.
+        Its counters stay; `component()` brings it back."""
+        self._live.pop(f"{role}:{name}", None)
 
     def snapshot(self) -> dict[str, Any]:
         out: dict[str, Any] = {"t": self.clock.now()}
         ok = True
-        for h in self.components.values():
+        for h in self._live.values():
             snap = h.snapshot()
             ok = ok and snap["ok"]
             out.setdefault(h.role + "s", {})[h.name] = snap

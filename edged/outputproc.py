@@ -112,7 +112,13 @@ class _Reporter:
             status = None
             h.error(f"status: {type(exc).__name__}: {exc}")
         files = getattr(self.plugin, "files", None)
+        try:
+            ledger = self.plugin.ledger() if hasattr(self.plugin, "ledger") else None
+        except Exception as exc:
+            ledger = None
+            h.error(f"ledger: {type(exc).__name__}: {exc}")
         return {
+            "ledger": ledger,
             "counters": delta,
             "state": h.state,
             "last_error": h.last_error,
@@ -210,6 +216,12 @@ class ProcessOutput:
         self._loop: asyncio.AbstractEventLoop | None = None
         #: The start under way or done (see `open`).
         self.opening: asyncio.Future[None] | None = None
+        #: Records sent to the current process, and its last `ledger` (what counts
+        #: exactly what a kill loses: `lost_at_death`); records of writes refused since
+        #: it died.
+        self._handed = 0
+        self._ledger: dict[str, Any] | None = None
+        self._refused = 0
 
     @property
     def pid(self) -> int | None:
@@ -256,6 +268,8 @@ class ProcessOutput:
             _kill(p, parent)
             raise RuntimeError(f"the output could not be made in its process: {msg[1]}")
         self.process, self._conn = p, parent
+        self._handed = self._refused = 0
+        self._ledger = None
         self._receiver = threading.Thread(target=self._receive, args=(parent, p), name=f"edged-{self.name}-recv",
                                           daemon=True)
         self._receiver.start()
@@ -294,6 +308,7 @@ class ProcessOutput:
         conn = self._conn
         if conn is None or self._receiver is None or not self._receiver.is_alive():
             if what == "write":
+                self._refused += len(arg)
                 fut.set_exception(OutputProcessDied("the output's process is gone"))
             else:
                 fut.set_result((None, None))  # flush, rotate, ready, close: nothing to do it to
@@ -302,6 +317,8 @@ class ProcessOutput:
             now, mono = self.clock.now(), self.clock.monotonic()
         msg = (what, now, mono) if arg is None else (what, now, mono, arg)
         data = ForkingPickler.dumps(msg, pickle.HIGHEST_PROTOCOL)
+        if what == "write":
+            self._handed += len(arg)
         loop = self._loop
         if loop is not None:
             fut.add_done_callback(lambda f: loop.call_soon_threadsafe(self._answered, f))
@@ -342,6 +359,7 @@ class ProcessOutput:
             h.last_error_t = report["last_error_t"]
         h.info.update(report["info"])
         self._status = report["status"]
+        self._ledger = report.get("ledger")
         if report["files"] is not None and self.files is not None:
             self.files[:] = [Path(f) for f in report["files"]]
 
@@ -405,6 +423,19 @@ class ProcessOutput:
             self.process = self._conn = self._receiver = None
             if p is not None:
                 await asyncio.get_running_loop().run_in_executor(None, _stop, p, conn, rx, self._writer)
+
+    def lost_at_death(self, unanswered: int) -> int:
+        """The records a dead process took with it. The plugin counts them from its
+        last ledger and what it left (a recorder reads its file past its last flush):
+        exact, where the writes that got no answer (`unanswered` records, the count
+        when the plugin cannot tell) miss a recorder's chunk that was still open. The
+        writes refused since the death are lost as well."""
+        try:
+            lost = self.plugin.lost_at_death(self._handed, self._ledger)
+        except Exception as exc:  # a plugin's count must not stop the restart
+            self.health.error(f"lost_at_death: {type(exc).__name__}: {exc}")
+            lost = None
+        return (unanswered - self._refused if lost is None else int(lost)) + self._refused
 
     def kill_now(self) -> None:
         """From the event loop, when closing did not end in time: the child goes at once."""

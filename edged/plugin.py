@@ -336,6 +336,20 @@ class OutputPlugin(Plugin):
     async def close(self) -> None:
         """Flush and release everything; called once on shutdown or before restart."""
 
+    # -- a process of its own that is killed (`worker = "process"`) ---------------------
+    def ledger(self) -> dict[str, Any] | None:
+        """(in the output's process) What its parent needs to count exactly what a
+        kill of the process loses: sent with every answer, kept by the parent. None:
+        the parent counts the records of the writes that got no answer."""
+        return None
+
+    def lost_at_death(self, handed: int, ledger: dict[str, Any] | None) -> int | None:
+        """(in the parent, after the output's process died) How many of the `handed`
+        records given to that process reached no destination, from its last `ledger`
+        and what it left behind (a recorder's file); None: not known here (then the
+        records of the writes that got no answer are counted)."""
+        return None
+
 
 class Command(Protocol):
     """A CLI subcommand implemented by a plugin (entry point group `edged.commands`)."""

@@ -309,6 +309,12 @@ class HealthRecord:
         self.t = t
         self.values = values
 
+    def beacon(self) -> HealthRecord:
+        """The record without its snapshot: all an estimator worker takes from it is
+        its time (data time moves on). Queued whole, the snapshots of a replay of
+        many sources filled the workers' queues with gigabytes (issue 32)."""
+        return HealthRecord(self.t, {})
+
 
 Record = Measurement | Estimate | RawRecord | HealthRecord
 

@@ -243,6 +243,8 @@ class Router:
             preferred = prio.accept(rec.source, rec.t)
             if not preferred:
                 self.suppressed += 1
+        # Estimator workers (sequenced) take a health record as a time beacon only.
+        beacon = rec.beacon() if key == "health" else None
         for sub in targets:
             if sub.sources is not None and rec.source not in sub.sources:
                 continue
@@ -258,7 +260,7 @@ class Router:
                     continue
                 if t > sub.newest_t:
                     sub.newest_t = t
-            if not sub.queue.put((cause, rec) if sub.sequenced else rec):
+            if not sub.queue.put((cause, beacon or rec) if sub.sequenced else rec):
                 sub.overflow += 1
                 if sub.health is not None:
                     sub.health.count("overflow")

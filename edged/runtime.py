@@ -153,7 +153,7 @@ class OutputHost:
             f.add_done_callback(lambda f: f.cancelled() or f.exception())
         inflight.clear()
         if isinstance(exc, OutputProcessDied):
-            self.health.count("dropped.process_died", lost)
+            self.health.count("dropped.process_died", proc.lost_at_death(lost))
             raise exc
         raise proc.failure(exc) from None
 

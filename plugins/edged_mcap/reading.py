@@ -28,6 +28,7 @@ need them, and `edged recover` writes new ones.
 from __future__ import annotations
 
 import io
+import os
 import struct
 import zlib
 from dataclasses import dataclass, field
@@ -49,7 +50,7 @@ from mcap.records import (
     Schema,
 )
 
-__all__ = ["ReadReport", "NoRecords", "iter_records", "iter_messages", "MAGIC", "MAX_RECORD"]
+__all__ = ["ReadReport", "NoRecords", "iter_records", "iter_messages", "messages_after", "MAGIC", "MAX_RECORD"]
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -482,3 +483,46 @@ def iter_messages(
             channels[rec.id] = rec
         elif isinstance(rec, Schema):
             schemas[rec.id] = rec
+
+
+def messages_after(path: str | os.PathLike[str], offset: int, skip: set[int], skip_prefix: str) -> int:
+    """Messages in the complete chunks of the file from byte `offset` (where a record
+    begins) to where it ends or is cut, leaving out those of the channels in `skip` and
+    of channels read there whose topic begins with `skip_prefix`. What a recorder
+    killed between two flushes had written past its last one (a short read: a second
+    of data)."""
+    report = ReadReport()
+    skip = set(skip)
+    n = 0
+    head_size = _RECORD_HEAD.size
+    with open(path, "rb") as stream:
+        stream.seek(offset)
+        while True:
+            head = _read(stream, head_size)
+            if len(head) < head_size:
+                return n
+            opcode, length = _RECORD_HEAD.unpack(head)
+            if length > MAX_RECORD:
+                return n
+            body = _read(stream, length)
+            if len(body) < length:
+                return n  # the record the kill cut short
+            if opcode == Opcode.CHANNEL:
+                try:
+                    records: Iterator[McapRecord] = iter([_PARSE[opcode](body)])
+                except Exception:  # its fields do not fit its bytes
+                    continue
+            elif opcode == Opcode.CHUNK:
+                try:
+                    chunk = _PARSE[opcode](body)
+                except Exception:  # a chunk that does not parse holds nothing readable
+                    continue
+                records = _chunk_records(chunk, report, MAX_RECORD)  # type: ignore[arg-type]
+            else:
+                continue
+            for rec in records:
+                if isinstance(rec, Message):
+                    if rec.channel_id not in skip:
+                        n += 1
+                elif isinstance(rec, Channel) and rec.topic.startswith(skip_prefix):
+                    skip.add(rec.id)

@@ -54,6 +54,7 @@ from . import files
 from .channels import dumps, encode, to_ns
 from .config import GIB, McapConfig
 from .mcapfile import McapFile
+from .reading import messages_after
 
 __all__ = ["McapRecorder", "Opener", "numbered"]
 
@@ -65,6 +66,10 @@ RECORDING = "recording"
 DISK_LOW = "disk_low"  # free space below the floor: stopped on purpose, resumes by itself
 DISK_FULL = "disk_full"  # a write failed for lack of space
 FAILED = "failed"  # any other write or open error
+
+#: Topics of messages derived from a record recorded on its own channel as well (a
+#: position's LocationFix): every other message is a record of its own.
+DERIVED = "/location/"
 
 #: Log times are uint64 nanoseconds: data time must lie in [1970, 2554).
 MAX_T = (2**64 - 1) / 1e9
@@ -131,6 +136,13 @@ class McapRecorder(OutputPlugin):
         self._final = False  # an exact file that failed is never reopened
         self._max_chunks = max_chunks
         self._pending = 0  # messages added to the open chunk(s), not yet flushed to the file
+        #: The ledger (records, not messages) a parent reads when this process is killed:
+        #: records whose fate is settled (in a flushed or finished file, rejected,
+        #: dropped and counted), records added to the current file since its last
+        #: flush, and where that flush ended in the file.
+        self._settled = 0
+        self._unflushed = 0
+        self._flushed_bytes = 0
         #: The wait after each attempt in a row that failed with an OS error.
         self._backoff = Backoff(config.retry_seconds, max(RETRY_MAX_SECONDS, config.retry_seconds))
         self.files: list[Path] = []
@@ -149,6 +161,7 @@ class McapRecorder(OutputPlugin):
         health = self.ctx.health
         if f is None:
             health.count(f"dropped.{self._stopped}", len(batch))
+            self._settled += len(batch)
             return
         pub = to_ns(self.ctx.clock.now())
         channels = f.channels
@@ -158,6 +171,7 @@ class McapRecorder(OutputPlugin):
         owner: list[int] = []
         last_t: Any = None
         log = 0
+        settled = self._settled  # (the ledger: the rejected are settled at once)
         try:
             for i, rec in enumerate(batch):
                 try:
@@ -165,16 +179,19 @@ class McapRecorder(OutputPlugin):
                 except KeyError:
                     health.count("rejected.unknown_record")
                     health.error(f"not a record edged knows: {type(rec).__name__}")
+                    self._settled += 1
                     continue
                 except (AttributeError, TypeError, ValueError) as exc:  # e.g. raw data that is not bytes
                     health.count("rejected.malformed")
                     health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
+                    self._settled += 1
                     continue
                 t = getattr(rec, "t", None)
                 if t != last_t or t.__class__ is not last_t.__class__:
                     if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
                         health.count("rejected.bad_time")
                         health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
+                        self._settled += 1
                         continue
                     log = to_ns(t)
                     last_t = t
@@ -184,6 +201,8 @@ class McapRecorder(OutputPlugin):
                     except (TypeError, ValueError) as exc:
                         health.count("rejected.unencodable")
                         health.error(f"{topic}: not JSON: {exc}")
+                        if not topic.startswith(DERIVED):
+                            self._settled += 1  # the record's own message is not recorded
                         continue
                     if cleaned:
                         health.count("nonfinite_as_null")
@@ -197,14 +216,19 @@ class McapRecorder(OutputPlugin):
                     owner.append(i)
             self._add(f, msgs, owner, pub)
         except _WriteFailed as failed:
+            rejected = self._settled - settled
             self._pending += failed.added
             self._fail(failed.error)
             health.count(f"dropped.{self._stopped}", len(batch) - failed.first_lost)
+            self._settled += len(batch) - rejected  # dropped, or in the file left behind
             return
         except OSError as exc:  # registering a channel
+            rejected = self._settled - settled
             self._fail(exc)
             health.count(f"dropped.{self._stopped}", len(batch) - (owner[0] if owner else i))
+            self._settled += len(batch) - rejected
             return
+        self._unflushed += len(batch) - (self._settled - settled)
         self._maybe_rotate()
 
     def _add(self, f: McapFile, msgs: list[tuple[int, int, bytes]], owner: list[int], pub: int) -> None:
@@ -229,10 +253,12 @@ class McapRecorder(OutputPlugin):
             return
         try:
             f.flush(self.config.fsync)
+            flushed = f.size
         except OSError as exc:
             self._fail(exc)
             return
         self._confirm()
+        self._flushed_bytes = flushed
         if not self._enough_space(f.path.parent):
             self._finish(DISK_LOW)
             return
@@ -255,15 +281,43 @@ class McapRecorder(OutputPlugin):
 
     def _confirm(self) -> None:
         """What was added so far is in the file now: count it recorded."""
+        self._settled += self._unflushed
+        self._unflushed = 0
         if self._pending:
             self.ctx.health.count("recorded", self._pending)
             self._pending = 0
             self._backoff.reset()  # a file that took data: the next trouble starts afresh
 
     def _lose_pending(self) -> None:
+        self._settled += self._unflushed
+        self._unflushed = 0
         if self._pending:
             self.ctx.health.count(f"dropped.{self._stopped}", self._pending)
             self._pending = 0
+
+    # -- a process of its own that is killed (see OutputPlugin.ledger) -------------------
+    def ledger(self) -> dict[str, Any]:
+        """Records settled so far, and the current file with where its last flush ended
+        and the channels of derived messages (a record's second message, not counted)."""
+        f = self._file
+        return {
+            "settled": self._settled,
+            "file": None if f is None else str(f.path),
+            "flushed_bytes": self._flushed_bytes,
+            "derived": [] if f is None else sorted(cid for t, cid in f.channels.items() if t.startswith(DERIVED)),
+        }
+
+    def lost_at_death(self, handed: int, ledger: dict[str, Any] | None) -> int | None:
+        """The records handed to a killed recorder that are in no file: those it had not
+        settled, less those its file holds past its last flush (chunks it wrote
+        between two flushes, and after its last answer)."""
+        if ledger is None:
+            return None
+        unknown = handed - int(ledger["settled"])
+        path = ledger.get("file")
+        if path and unknown > 0:
+            unknown -= messages_after(path, int(ledger["flushed_bytes"]), set(ledger["derived"]), DERIVED)
+        return max(0, unknown)
 
     def status(self) -> dict[str, Any]:
         f = self._file
@@ -348,6 +402,7 @@ class McapRecorder(OutputPlugin):
             self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
             return
         self._file = f
+        self._flushed_bytes = f.header_size
         self._started = now
         self.files.append(path)
         health.info["file"] = str(path)
