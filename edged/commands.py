@@ -145,12 +145,28 @@ async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: f
                 pass
         log.info("event=stopping")
     finally:
+        before = {o.name: output_loss(o) for o in rt.outputs}
         await rt.stop()
         stops.remove()
         for sig in installed:
             loop.remove_signal_handler(sig)
+    lost = {o.name: output_loss(o) - before[o.name] for o in rt.outputs}
+    lost = {name: n for name, n in lost.items() if n}
+    if lost:
+        # The stop itself lost records (an output that could not take its last batch,
+        # a child killed with it): said, and not a clean exit (systemd shows it).
+        for name, n in sorted(lost.items()):
+            o = next(o for o in rt.outputs if o.name == name)
+            log.error("event=stopped-with-loss output=%s lost=%d last_error=%r", name, n, o.health.last_error)
+        return EXIT_FAILURE
     log.info("event=stopped")
     return EXIT_OK
+
+
+def output_loss(o: OutputHost) -> int:
+    """Records an output lost so far: dropped (any reason) and its queue's overflow."""
+    c = o.health.counters
+    return sum(v for k, v in c.items() if k.startswith("dropped.")) + c.get("overflow", 0)
 
 
 def cmd_run(args: argparse.Namespace, registry: Registry) -> int:

@@ -127,6 +127,10 @@ class Subscription:
         return (self.keys is None or key in self.keys) and key not in self.exclude
 
 
+#: Sources of one kind a priority keeps before it forgets those silent for ten timeouts.
+PRUNE_SOURCES = 64
+
+
 class SourcePriority:
     """Failover among sources of one kind, judged on data time."""
 
@@ -157,6 +161,12 @@ class SourcePriority:
                 r = n
             if r < best_rank:
                 best, best_rank = s, r
+        if len(last) > PRUNE_SOURCES:
+            # Sources long silent (a replay of a thousand one-minute files, each its own
+            # source) must not make every record walk all of them.
+            old = t - 10.0 * self.timeout
+            for s in [s for s, seen in last.items() if seen < old]:
+                del last[s]
         if best != self.active:
             if self.active is not None:
                 log.info("failover kind=%s from=%s to=%s t=%.3f", self.kind, self.active, best, t)

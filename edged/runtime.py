@@ -199,6 +199,7 @@ class OutputHost:
                     self.plugin.write(rest)
                     self.health.count("written", len(rest))
                 except Exception as exc:
+                    self.health.count("dropped.final_write", len(rest))
                     self.health.error(f"final write: {type(exc).__name__}: {exc}")
             self.flush()
         await self.close()

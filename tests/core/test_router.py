@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 
+import pytest
+
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
 from edged.records import Estimate, Measurement, RawRecord
@@ -101,6 +103,25 @@ def test_unlisted_source_ranks_last():
         ("gyro", 0.5),
         ("other", 2.0),
     ]
+
+
+@pytest.mark.parametrize("n", [65, 1000, 10_000])
+def test_a_priority_forgets_sources_silent_for_long_and_still_fails_over(n):
+    """A replay of n one-minute files of one kind, each file its own source: the
+    priority keeps the recent sources only (each record no longer walks all n), and
+    the order of the listed ones still rules."""
+    r = Router()
+    r.set_priority("heading", ["gyro"], timeout=2.0)
+    est = r.subscribe("est", ["heading"], maxsize=2 * n)
+    for j in range(n):
+        r.publish(hdg(f"file{j}", 60.0 * j))
+    prio = r.priorities["heading"]
+    assert len(prio.last_seen) <= 65
+    r.publish(hdg("gyro", 60.0 * n))
+    r.publish(hdg(f"file{n}", 60.0 * n + 0.5))  # the gyro alive: ranked first
+    got = [(m.source, m.t) for m in est.queue.drain_nowait()]
+    assert got[-1] == ("gyro", 60.0 * n)
+    assert ("file%d" % n, 60.0 * n + 0.5) not in got
 
 
 async def test_bounded_queue_wakes_consumer_and_batches():

@@ -257,3 +257,52 @@ def test_health_marks_each_component_and_the_whole_ok_or_not():
     reg.component("rec", "output").set_state("disk_full")
     snap = reg.snapshot()
     assert snap["ok"] is False and snap["outputs"]["rec"]["ok"] is False
+
+
+async def test_a_stop_that_loses_records_is_said_and_exits_1(registry, caplog):
+    """A daemon's stop must not look clean when it lost records: the output that could
+    not take its last batch counts them (`dropped.final_write`), the log names it, and
+    the exit code is 1 (systemd then shows the stop as failed)."""
+    rt = _runtime(registry, {"outputs": {"rec": {"type": "list"}}})
+    host = rt.outputs[0]
+    out = ListOutput.instances[0]
+    stop = asyncio.Event()
+    drain = host.drain_and_close
+
+    def full_disk(batch):
+        raise OSError(28, "No space left on device")
+
+    async def the_disk_fills_as_the_daemon_stops() -> None:
+        for i in range(7):  # queued for the final drain
+            rt.router.publish(Measurement("yaw_rate", "g", 1.0 + i, {"r": 0.1}))
+        out.write = full_disk
+        await drain()
+
+    host.drain_and_close = the_disk_fills_as_the_daemon_stops
+
+    async def then_stop() -> None:
+        while "open" not in out.events:
+            await asyncio.sleep(0)
+        stop.set()
+
+    helper = asyncio.ensure_future(then_stop())
+    assert await asyncio.wait_for(run_daemon(rt, stop), 5.0) == 1
+    await helper
+    assert host.health.counters["dropped.final_write"] == 7
+    assert "event=stopped-with-loss output=rec lost=7" in caplog.text
+
+
+async def test_a_stop_that_loses_nothing_exits_0_after_losses_earlier_in_the_run(registry):
+    rt = _runtime(registry, {"outputs": {"rec": {"type": "list"}}})
+    out = ListOutput.instances[0]
+    stop = asyncio.Event()
+
+    async def then_stop() -> None:
+        while "open" not in out.events:
+            await asyncio.sleep(0)
+        rt.outputs[0].health.count("dropped.overflow_earlier", 3)  # counted, said in health long ago
+        stop.set()
+
+    helper = asyncio.ensure_future(then_stop())
+    assert await asyncio.wait_for(run_daemon(rt, stop), 5.0) == 0
+    await helper
