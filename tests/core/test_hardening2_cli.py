@@ -98,3 +98,24 @@ def test_a_zenoh_config_that_is_no_text_is_refused_before_anything_starts(comman
     assert main([*argv, "--zenoh-config", str(junk)]) == 2
     err = capsys.readouterr().err
     assert f"{junk}: --zenoh-config: not a json5 text file" in err
+
+
+@pytest.mark.parametrize("zenoh_out", [False, True])
+def test_run_says_when_a_zenoh_config_is_given_that_no_plugin_reads(zenoh_out, tmp_path: Path, monkeypatch, capsys):
+    """A good file given where no zenoh input or output is configured: not silent."""
+    import edged.commands as commands
+
+    async def stopped_at_once(rt, *a, **k):
+        return 0
+
+    monkeypatch.setattr(commands, "run_daemon", stopped_at_once)
+    z = tmp_path / "z.json5"
+    z.write_text('{ mode: "client" }\n')
+    cfg = tmp_path / "edged.toml"
+    text = '[inputs.nmea]\ntype = "nmea0183"\ntransport = "udp"\nport = 47999\n'
+    if zenoh_out:
+        text += '[outputs.zenoh]\ntype = "zenoh"\n'
+    cfg.write_text(text)
+    assert main(["run", "-c", str(cfg), "--zenoh-config", str(z)]) == 0
+    said = "event=option-unused option=--zenoh-config" in capsys.readouterr().err
+    assert said is not zenoh_out
