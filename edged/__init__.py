@@ -9,10 +9,11 @@ from importlib.metadata import PackageNotFoundError, version
 # what it is to run, long before its `serve`: numpy, pydantic and a filter stack take
 # a second. A stop signal sent to the whole process group in that second (Ctrl-C,
 # `systemctl stop`) killed it there, with a KeyboardInterrupt traceback (issue 32).
-# The parent decides when its children end (`edged.signals.ignore_stop_signals`).
+# The parent decides when its children end (`edged.signals.ignore_stop_signals`, whose
+# CHILD_IGNORES these are: that module is not imported this early).
 if _mp.current_process().name.startswith("edged-") and _mp.parent_process() is None and getattr(
         _mp.current_process(), "_inheriting", False):
-    for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGHUP):
+    for _sig in (_signal.SIGINT, _signal.SIGTERM, _signal.SIGQUIT, _signal.SIGHUP, _signal.SIGUSR1, _signal.SIGUSR2):
         _signal.signal(_sig, _signal.SIG_IGN)
 
 try:

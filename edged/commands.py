@@ -507,7 +507,7 @@ async def _replay(
         if task is not None:
             task.cancel()
 
-    stops = StopSignals(loop, on_signal, rt.config.edged.shutdown_timeout).install()
+    stops = StopSignals(loop, on_signal, rt.config.edged.shutdown_timeout, hangup_stops=True).install()
     try:
         await rt.start()
         task = loop.create_task(replayer.run(), name="replay")

@@ -19,11 +19,21 @@ A step that returns in time is never interrupted: what was queued is still proce
 from __future__ import annotations
 
 import asyncio
+import logging
 import signal
 import threading
 import time
 from contextlib import contextmanager
 from typing import Callable, Iterator
+
+log = logging.getLogger("edged.signals")
+
+#: What stops the daemon and a replay: systemd's stop, a terminal's Ctrl-C and Ctrl-\\
+#: (SIGQUIT: a graceful quit, as nginx reads it, not a core dump that loses the file).
+STOP = (signal.SIGTERM, signal.SIGINT, signal.SIGQUIT)
+#: Signals that mean nothing here and whose default would end the process, leaving a
+#: recording unfinished: logged and ignored.
+IGNORED = (signal.SIGUSR1, signal.SIGUSR2)
 
 #: When the step that now runs in the main thread began (time.monotonic()), or None.
 _step_since: float | None = None
@@ -47,17 +57,24 @@ def step() -> Iterator[None]:
 
 
 class StopSignals:
-    """SIGTERM/SIGINT to `on_signal(sig)` through the loop, and to a step that holds the
-    loop past half of `timeout` after the first of them."""
+    """The `STOP` signals to `on_signal(sig)` through the loop, and to a step that holds
+    the loop past half of `timeout` after the first of them; `IGNORED` logged.
 
-    SIGNALS = (signal.SIGTERM, signal.SIGINT)
+    `hangup_stops`: SIGHUP stops as well (a replay: the terminal it ran in closed),
+    unless the process was started with SIGHUP ignored (`nohup`). The daemon gives
+    SIGHUP its own meaning (logs reopened, files rotated)."""
 
     def __init__(self, loop: asyncio.AbstractEventLoop, on_signal: Callable[[signal.Signals], None],
-                 timeout: float) -> None:
+                 timeout: float, *, hangup_stops: bool = False) -> None:
         self.loop = loop
         self.on_signal = on_signal
         self.timeout = timeout
+        sigs = list(STOP)
+        if hangup_stops and signal.getsignal(signal.SIGHUP) is not signal.SIG_IGN:
+            sigs.append(signal.SIGHUP)
+        self.signals = tuple(sigs)
         self.installed: list[signal.Signals] = []
+        self._ignoring: list[signal.Signals] = []
         self._asked: signal.Signals | None = None
         self._overdue = False
         self._done = threading.Event()
@@ -65,7 +82,13 @@ class StopSignals:
         self._main = threading.main_thread().ident
 
     def install(self) -> "StopSignals":
-        for sig in self.SIGNALS:
+        for sig in IGNORED:
+            try:
+                self.loop.add_signal_handler(sig, _ignored, sig)
+            except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
+                continue
+            self._ignoring.append(sig)
+        for sig in self.signals:
             try:
                 self.loop.add_signal_handler(sig, self.on_signal, sig)
             except (NotImplementedError, RuntimeError, ValueError):  # not the main thread
@@ -79,9 +102,10 @@ class StopSignals:
 
     def remove(self) -> None:
         self._done.set()
-        for sig in self.installed:
+        for sig in (*self.installed, *self._ignoring):
             self.loop.remove_signal_handler(sig)
         self.installed.clear()
+        self._ignoring.clear()
 
     def _handler(self, signum: int, frame: object) -> None:
         if self._asked is None:
@@ -103,8 +127,12 @@ class StopSignals:
                 signal.pthread_kill(self._main, self._asked)
 
 
+def _ignored(sig: signal.Signals) -> None:
+    log.warning("event=signal-ignored signal=%s reason='it means nothing to edged'", sig.name)
+
+
 #: The signals a process of the daemon's own (a recorder, a worker) leaves to the parent.
-CHILD_IGNORES = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+CHILD_IGNORES = (*STOP, signal.SIGHUP, *IGNORED)
 
 
 def ignore_stop_signals() -> None:

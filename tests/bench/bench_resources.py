@@ -85,6 +85,15 @@ Measured there on 2026-12-04 (`--extra candump:2G`, and `--mcap-sizes 64M,256M,1
 - N files: about 1.25 MB and one descriptor per file, all open at once (1000: 1.37 GB,
   1010 descriptors); with `--nofile 1024`, 1020 files end in exit 2, "Too many open
   files". K draft estimators: about 165 MB per instance in the tree (12: 2.09 GB).
+- at 1a767a1 / 006545b (`--mcap-sizes 64M,256M,1G --timeout 300`; `--cases
+  lines,files,draft --extra candump:2G --files 100,250,1000,3000`): MCAP chunks read in
+  pieces: 48 MB in inspect and export, 51-52 MB in recover, 132 MB (192 MB tree) in
+  replay, at every chunk size up to 1 GiB (the 2 x 1 GiB replay, 15 million records,
+  still runs into the timeout: a matter of speed, issue 34). Files opened at their
+  first record and closed at their end, health without the finished ones, workers
+  given health as a time beacon: 100 / 250 / 1000 / 3000 files 122 / 132 / 132 / 146
+  MB and 11-14 descriptors (2.7 / 4.9 / 18.5 / 75 s: the estimators' cost per second
+  of data, 60 s per file). Lines and drafts as before.
 
 Not a pytest test (no `test_` prefix): run it on demand.
 """

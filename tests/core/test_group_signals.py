@@ -32,8 +32,10 @@ def _free_udp_port() -> int:
         return s.getsockname()[1]
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGQUIT, signal.SIGUSR1])
 def test_a_stop_signal_to_the_whole_group_leaves_a_finished_recording_and_exit_0(tmp_path: Path, sig):
+    """SIGUSR1, which means nothing to edged, is logged and ignored by every process
+    of the group (its default ended them: the file unfinished); SIGTERM then stops."""
     from mcap.reader import make_reader
 
     port = _free_udp_port()
@@ -86,6 +88,10 @@ def test_a_stop_signal_to_the_whole_group_leaves_a_finished_recording_and_exit_0
         # sleep: we wait for what the daemon says)
         wait_for("rejected NMEA 0183 line: checksum")
         os.killpg(proc.pid, sig)
+        if sig == signal.SIGUSR1:
+            wait_for("event=signal-ignored signal=SIGUSR1")
+            assert proc.poll() is None
+            os.killpg(proc.pid, signal.SIGTERM)
         proc.wait(timeout=60)
     finally:
         if proc.poll() is None:

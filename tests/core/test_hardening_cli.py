@@ -121,12 +121,13 @@ def test_record_onto_something_that_is_not_a_regular_file_exits_2(tmp_path, caps
 
 # -- SIGTERM / SIGINT ---------------------------------------------------------------
 @pytest.mark.parametrize("group", [False, True], ids=["process", "group"])
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGQUIT, signal.SIGHUP])
 def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig, group):
     """To the replay's process, or (issue 32) to its whole process group, as Ctrl-C in a
     terminal and `systemctl stop` do: the recorder's and the workers' processes ignore
     it and the parent finishes the file (before, the group signal killed the recorder
-    first: the file was left unfinished)."""
+    first: the file was left unfinished). SIGQUIT (Ctrl-\\) and SIGHUP (the terminal
+    closed) as well: before, either ended the replay at once, the file unfinished."""
     from mcap.reader import make_reader
 
     # Ten sentences at the first instant (replayed before the replay first waits),
