@@ -22,6 +22,7 @@ from .records import HealthRecord
 from .registry import PluginNotFound, Registry
 from .replay import Replayer, ReplayStats, UnknownFormat, detect, utc_iso
 from .runtime import OutputHost, PluginBuildError, Runtime
+from .sdnotify import Notifier, feed_watchdog, watchdog_period
 from .signals import StopSignals
 
 log = logging.getLogger("edged")
@@ -110,11 +111,17 @@ def cmd_check_config(args: argparse.Namespace, registry: Registry) -> int:
 
 
 # -- run ------------------------------------------------------------------------
-async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: float | None = None) -> int:
-    """Run until SIGTERM/SIGINT (or `stop`, or `duration` seconds); SIGHUP rotates."""
+async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: float | None = None,
+                     notifier: Notifier | None = None) -> int:
+    """Run until SIGTERM/SIGINT/SIGQUIT (or `stop`, or `duration` seconds); SIGHUP
+    rotates. Under systemd (`Type=notify`) it says READY=1 once every plugin has
+    started, feeds the watchdog while the loop and every plugin task live, and says
+    STOPPING=1 when it stops."""
     loop = asyncio.get_running_loop()
     stop = stop or asyncio.Event()
     installed: list[int] = []
+    notifier = notifier if notifier is not None else Notifier()
+    feeder: asyncio.Task[None] | None = None
 
     def _hup() -> None:
         log.info("event=sighup action=reopen-logs,rotate")
@@ -136,6 +143,11 @@ async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: f
             len(rt.workers),
             len(rt.outputs),
         )
+        notifier.ready(f"running: vessel {rt.config.edged.vessel_id}, {len(rt.inputs)} inputs, "
+                       f"{len(rt.workers)} estimators, {len(rt.outputs)} outputs")
+        period = watchdog_period()
+        if period is not None and notifier.enabled:
+            feeder = loop.create_task(feed_watchdog(notifier, period, rt.ended_tasks), name="watchdog")
         if duration is None:
             await stop.wait()
         else:
@@ -145,8 +157,12 @@ async def run_daemon(rt: Runtime, stop: asyncio.Event | None = None, duration: f
                 pass
         log.info("event=stopping")
     finally:
+        notifier.stopping()
+        if feeder is not None:
+            feeder.cancel()
         before = {o.name: output_loss(o) for o in rt.outputs}
         await rt.stop()
+        notifier.close()
         stops.remove()
         for sig in installed:
             loop.remove_signal_handler(sig)

@@ -375,6 +375,12 @@ class Runtime:
         # Let every task reach its first await (outputs open their files/sessions).
         await asyncio.sleep(0)
 
+    def ended_tasks(self) -> list[str]:
+        """The supervised tasks (inputs, workers, outputs, the health ticker) that have
+        ended while the runtime runs: none should, so the systemd watchdog is withheld."""
+        tasks = [*self._tasks, *([self._ticker] if self._ticker is not None else [])]
+        return [t.get_name() for t in tasks if t.done()]
+
     async def _tick_loop(self) -> None:
         interval = self.config.edged.health_interval
         while True:
