@@ -222,6 +222,10 @@ class ProcessOutput:
         self._handed = 0
         self._ledger: dict[str, Any] | None = None
         self._refused = 0
+        #: Set by the receiver at the end of the pipe, under `_lock`, with which a call
+        #: is queued: no call waits behind a process that is gone.
+        self._lock = threading.Lock()
+        self._dead = True
 
     @property
     def pid(self) -> int | None:
@@ -270,6 +274,7 @@ class ProcessOutput:
         self.process, self._conn = p, parent
         self._handed = self._refused = 0
         self._ledger = None
+        self._dead = False
         self._receiver = threading.Thread(target=self._receive, args=(parent, p), name=f"edged-{self.name}-recv",
                                           daemon=True)
         self._receiver.start()
@@ -299,31 +304,43 @@ class ProcessOutput:
                 fut.set_exception(_Failed(answer[1], answer[2]))
         p.join(1.0)
         why = OutputProcessDied(f"the output's process ended (exit code {p.exitcode})")
-        while pending:
-            pending.popleft().set_exception(why)
+        with self._lock:  # no call is queued behind this: it would wait for ever
+            self._dead = True
+            left = list(pending)
+            pending.clear()
+        for fut in left:
+            fut.set_exception(why)
 
     # -- the event loop's side -------------------------------------------------------------
     def _submit(self, what: str, arg: Any = None, now: float | None = None, mono: float | None = None) -> "Future[Any]":
         fut: Future[Any] = Future()
         conn = self._conn
-        if conn is None or self._receiver is None or not self._receiver.is_alive():
-            if what == "write":
-                self._refused += len(arg)
-                fut.set_exception(OutputProcessDied("the output's process is gone"))
-            else:
-                fut.set_result((None, None))  # flush, rotate, ready, close: nothing to do it to
-            return fut
+        if conn is None or self._dead:
+            return self._gone(fut, what, arg)
         if now is None or mono is None:
             now, mono = self.clock.now(), self.clock.monotonic()
         msg = (what, now, mono) if arg is None else (what, now, mono, arg)
         data = ForkingPickler.dumps(msg, pickle.HIGHEST_PROTOCOL)
-        if what == "write":
-            self._handed += len(arg)
         loop = self._loop
         if loop is not None:
             fut.add_done_callback(lambda f: loop.call_soon_threadsafe(self._answered, f))
-        self._pending.append(fut)
+        with self._lock:
+            if self._dead:  # the receiver saw the end of the pipe meanwhile
+                return self._gone(fut, what, arg)
+            self._pending.append(fut)
+            if what == "write":
+                self._handed += len(arg)
         self._writer.submit(self._send, conn, data)
+        return fut
+
+    def _gone(self, fut: "Future[Any]", what: str, arg: Any) -> "Future[Any]":
+        """A call made when the process is gone: a write fails (its records are lost and
+        counted), anything else has nothing to do it to."""
+        if what == "write":
+            self._refused += len(arg)
+            fut.set_exception(OutputProcessDied("the output's process is gone"))
+        else:
+            fut.set_result((None, None))
         return fut
 
     def _answered(self, fut: "Future[Any]") -> None:

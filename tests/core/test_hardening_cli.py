@@ -143,6 +143,9 @@ def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig, group)
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
         start_new_session=group,  # its own group, so that the test is not in it
+        # SIGHUP as a terminal leaves it, whatever this test runs under (`nohup make
+        # test` would have it ignored, and a replay started so keeps ignoring it)
+        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL),
     )
     lines: queue.Queue[str | None] = queue.Queue()
 
@@ -196,6 +199,32 @@ def test_a_signal_stops_a_recording_replay_like_the_daemon(tmp_path, sig, group)
     assert {"/raw/nmea0183/voyage", "/meas/heading/voyage", "/health"} <= topics
     n = summary.statistics.message_count
     assert n >= 21 and f"{n} messages recorded" in rec_line  # 10 raw, 10 headings, health
+
+
+def test_a_replay_started_under_nohup_goes_on_after_a_hangup(tmp_path):
+    """Started with SIGHUP ignored (`nohup edged replay ...`), a hangup does not stop it:
+    the SIGTERM after it does, and the summary names SIGTERM."""
+    long = nmea_log(tmp_path / "voyage.log", 0, [T0] * 10 + [T0 + s for s in range(1, 3600)])
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "edged.cli", "--log-level", "info", "replay", str(long),
+         "--no-zenoh", "--no-progress", "--speed", "1", "--record", str(tmp_path / "out.mcap")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN),
+    )
+    try:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            if "event=replay-started" in line:
+                break
+        proc.send_signal(signal.SIGHUP)
+        proc.send_signal(signal.SIGTERM)
+        stdout, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1
+    assert "by SIGTERM" in stdout and "SIGHUP" not in stdout
 
 
 # -- a closed standard output -------------------------------------------------------
