@@ -73,135 +73,25 @@ class Pki:
         return str(self.folder / f"{name}.key")
 
 
-def _pki_with_cryptography(pki: Pki) -> None:
-    import datetime
-    import ipaddress
-
-    from cryptography import x509
-    from cryptography.hazmat.primitives import hashes, serialization
-    from cryptography.hazmat.primitives.asymmetric import ec
-    from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
-
-    now = datetime.datetime.now(datetime.timezone.utc)
-
-    def name(cn: str) -> x509.Name:
-        return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, cn)])
-
-    def write(stem: str, key: Any, cert: x509.Certificate) -> None:
-        (pki.folder / f"{stem}.key").write_bytes(
-            key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption())
-        )
-        (pki.folder / f"{stem}.pem").write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-
-    def ca(stem: str, cn: str) -> tuple[Any, x509.Certificate]:
-        key = ec.generate_private_key(ec.SECP256R1())
-        cert = (
-            x509.CertificateBuilder().subject_name(name(cn)).issuer_name(name(cn)).public_key(key.public_key())
-            .serial_number(x509.random_serial_number())
-            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=2))
-            .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
-            .add_extension(x509.KeyUsage(digital_signature=False, content_commitment=False, key_encipherment=False,
-                                         data_encipherment=False, key_agreement=False, key_cert_sign=True,
-                                         crl_sign=True, encipher_only=False, decipher_only=False), critical=True)
-            .sign(key, hashes.SHA256())
-        )
-        write(stem, key, cert)
-        return key, cert
-
-    def leaf(stem: str, cn: str, issuer: tuple[Any, x509.Certificate], server: bool) -> None:
-        key = ec.generate_private_key(ec.SECP256R1())
-        b = (
-            x509.CertificateBuilder().subject_name(name(cn)).issuer_name(issuer[1].subject)
-            .public_key(key.public_key()).serial_number(x509.random_serial_number())
-            .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=2))
-            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
-            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH if server
-                                                  else ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
-        )
-        if server:
-            b = b.add_extension(x509.SubjectAlternativeName(
-                [x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), critical=False)
-        write(stem, key, b.sign(issuer[0], hashes.SHA256()))
-
-    site = ca("ca", "edged test site CA")
-    leaf("router", "localhost", site, server=True)
-    for cn in CLIENTS:
-        leaf(cn, cn, site, server=False)
-    leaf("rogue", "fleet-dashboard", ca("rogue-ca", "some other CA"), server=False)
-
-
-_OPENSSL_CNF = """\
-[req]
-distinguished_name = dn
-prompt = no
-[dn]
-CN = unused
-[ca]
-basicConstraints = critical, CA:TRUE
-keyUsage = critical, keyCertSign, cRLSign
-subjectKeyIdentifier = hash
-[server]
-basicConstraints = critical, CA:FALSE
-extendedKeyUsage = serverAuth
-subjectAltName = DNS:localhost, IP:127.0.0.1
-[client]
-basicConstraints = critical, CA:FALSE
-extendedKeyUsage = clientAuth
-"""
-
-
-def _pki_with_openssl(pki: Pki) -> None:
-    openssl = shutil.which("openssl")
-    if openssl is None:
-        raise OSError("no openssl command")
-    cnf = pki.folder / "openssl.cnf"
-    cnf.write_text(_OPENSSL_CNF)
-    serial = itertools.count(1000)
-
-    def run(*args: str) -> None:
-        subprocess.run([openssl, *args], cwd=pki.folder, check=True, capture_output=True, timeout=60)
-
-    newkey = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
-
-    def ca(stem: str, cn: str) -> None:
-        run("req", "-x509", "-config", str(cnf), "-extensions", "ca", *newkey, "-days", "2",
-            "-subj", f"/CN={cn}", "-keyout", f"{stem}.key", "-out", f"{stem}.pem")
-
-    def leaf(stem: str, cn: str, issuer: str, section: str) -> None:
-        run("req", "-new", "-config", str(cnf), *newkey, "-subj", f"/CN={cn}", "-keyout", f"{stem}.key",
-            "-out", f"{stem}.csr")
-        run("x509", "-req", "-in", f"{stem}.csr", "-CA", f"{issuer}.pem", "-CAkey", f"{issuer}.key",
-            "-set_serial", str(next(serial)), "-days", "2", "-extfile", str(cnf), "-extensions", section,
-            "-out", f"{stem}.pem")
-
-    ca("ca", "edged test site CA")
-    leaf("router", "localhost", "ca", "server")
-    for cn in CLIENTS:
-        leaf(cn, cn, "ca", "client")
-    ca("rogue-ca", "some other CA")
-    leaf("rogue", "fleet-dashboard", "rogue-ca", "client")
+MAKE_CERTS = Path(__file__).resolve().parents[2] / "deploy" / "zenoh" / "make-test-certs.sh"
 
 
 @pytest.fixture(scope="module")
 def pki(tmp_path_factory: pytest.TempPathFactory) -> Pki:
-    """With cryptography when importable, else (or if it fails) the openssl command;
-    skipped only when neither can make them."""
+    """Made by deploy/zenoh/make-test-certs.sh (the script a user runs): the site's CA,
+    the router and the clients; then a second CA's `fleet-dashboard`, kept as `rogue`.
+    Skipped only where openssl is not installed."""
+    if shutil.which("openssl") is None:
+        pytest.skip("cannot make TLS certificates: openssl is not installed")
     p = Pki(tmp_path_factory.mktemp("pki"))
-    makers = [_pki_with_openssl]
-    try:
-        import cryptography  # noqa: F401
-    except ImportError:
-        pass
-    else:
-        makers.insert(0, _pki_with_cryptography)
-    errors = []
-    for make in makers:
-        try:
-            make(p)
-            return p
-        except Exception as exc:  # noqa: BLE001 - any failure: try the next way, else skip
-            errors.append(f"{make.__name__}: {type(exc).__name__}: {exc}")
-    pytest.skip(f"cannot make TLS certificates: {'; '.join(errors)}")
+    subprocess.run(["sh", str(MAKE_CERTS), str(p.folder), *CLIENTS], check=True, capture_output=True, timeout=120)
+    other = p.folder / "other-site"
+    subprocess.run(["sh", str(MAKE_CERTS), str(other), "fleet-dashboard"], check=True, capture_output=True,
+                   env={**os.environ, "CA_NAME": "some other CA"}, timeout=120)
+    for src, dst in (("ca", "rogue-ca"), ("fleet-dashboard", "rogue")):
+        for ext in ("pem", "key"):
+            shutil.copy(other / f"{src}.{ext}", p.folder / f"{dst}.{ext}")
+    return p
 
 
 # -- the router and its clients ---------------------------------------------------------
