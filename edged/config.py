@@ -108,7 +108,9 @@ class ConfigError(Exception):
 class CoreConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
+    #: The vessel's id: the Zenoh key prefix is vessel/<vessel_id>/ (letters, digits, _ - .).
     vessel_id: str = "vessel"
+    #: What the log says: info logs state changes and errors, never a line per message.
     log_level: Literal["debug", "info", "warning", "error"] = "info"
     #: Also log to this file (reopened on SIGHUP); stderr is always used.
     log_file: str | None = None

@@ -76,6 +76,7 @@ class PluginConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     type: str
+    #: false: the table is checked but the plugin is not started.
     enabled: bool = True
 
     def claims(self) -> list[Claim]:

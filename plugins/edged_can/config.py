@@ -61,6 +61,7 @@ class CanConfig(InputConfig, ReconnectSettings):
     a second input with a site DBC for proprietary frames).
     """
 
+    #: python-can interface: SocketCAN on board, `virtual` for tests and the demo.
     interface: Literal["socketcan", "virtual"] = "socketcan"
     #: SocketCAN interface (`can0`) or the virtual bus's channel name.
     channel: str = "can0"

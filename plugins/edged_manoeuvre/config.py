@@ -51,8 +51,12 @@ DEFAULTS = {
 
 
 class ManoeuvreConfig(EstimatorConfig):
+    #: `tuned` (default) or the paper's filter as published (seed 002); sets the
+    #: defaults of every key shown "(by mode)".
     mode: Literal["tuned", "paper"] = "tuned"
+    #: Motion model: constant turn rate and acceleration, or the curvilinear one.
     model: Literal["ctra", "cmm"] = "ctra"
+    #: Extended, unscented or ensemble Kalman filter.
     filter: Literal["ekf", "ukf", "enkf"] = "ekf"
     #: EnKF: members, the random generator's seed, multiplicative inflation per update.
     members: int = Field(100, ge=3, le=100_000)
@@ -106,6 +110,7 @@ class ManoeuvreConfig(EstimatorConfig):
     yaw_accel_tau: float | None = Field(None, ge=0.0, le=60.0, validate_default=True)
     q_yaw_jerk: float | None = Field(None, ge=0.0, le=10.0, validate_default=True)  # rad²/s⁵
 
+    #: Adapt Q and R from the innovations (NIS), gate outliers, estimate the IMU's bias.
     adapt_q: bool | None = Field(None, validate_default=True)
     adapt_r: bool | None = Field(None, validate_default=True)
     gate: bool | None = Field(None, validate_default=True)
