@@ -176,3 +176,20 @@ def registry():
     r = Registry(use_entry_points=False)
     r.register("outputs", "list", ListOutput)
     return r
+
+
+async def test_a_plugin_task_that_ended_is_named_for_the_watchdog(registry):
+    from core_dummies import DummyInput
+
+    registry.register("inputs", "dummy", DummyInput)
+    rt = Runtime(parse_config({"inputs": {"g": {"type": "dummy", "lines": []}}, "outputs": {"rec": {"type": "list"}}},
+                              registry), registry, ManualClock(1_700_000_000.0))
+    await rt.start()
+    try:
+        assert rt.ended_tasks() == []
+        task = next(t for t in rt._tasks if t.get_name() == "input:g")
+        task.cancel()  # as if its supervisor had ended
+        await asyncio.gather(task, return_exceptions=True)
+        assert rt.ended_tasks() == ["input:g"]
+    finally:
+        await rt.stop()
