@@ -222,10 +222,12 @@ class ProcessOutput:
         self._handed = 0
         self._ledger: dict[str, Any] | None = None
         self._refused = 0
-        #: Set by the receiver at the end of the pipe, under `_lock`, with which a call
-        #: is queued: no call waits behind a process that is gone.
+        #: The current process's link: marked dead by its receiver at the end of the
+        #: pipe, under `_lock`, with which a call is queued (no call waits behind a
+        #: process that is gone). One per process: the receiver of a process that
+        #: died never marks the next one's.
         self._lock = threading.Lock()
-        self._dead = True
+        self._link = _Link(dead=True)
 
     @property
     def pid(self) -> int | None:
@@ -274,8 +276,8 @@ class ProcessOutput:
         self.process, self._conn = p, parent
         self._handed = self._refused = 0
         self._ledger = None
-        self._dead = False
-        self._receiver = threading.Thread(target=self._receive, args=(parent, p), name=f"edged-{self.name}-recv",
+        self._link = link = _Link(dead=False)
+        self._receiver = threading.Thread(target=self._receive, args=(parent, p, link), name=f"edged-{self.name}-recv",
                                           daemon=True)
         self._receiver.start()
         log.info("output=%s placement=process pid=%s", self.name, p.pid)
@@ -288,7 +290,7 @@ class ProcessOutput:
         except (OSError, ValueError):
             pass  # the child is gone: the receiver sees the end of the pipe and says so
 
-    def _receive(self, conn: Any, p: Any) -> None:
+    def _receive(self, conn: Any, p: Any, link: "_Link") -> None:
         """Answers, in the order of the calls, onto their futures; at the end of the
         pipe (the child died or was stopped) every call still waiting fails."""
         pending = self._pending
@@ -305,7 +307,7 @@ class ProcessOutput:
         p.join(1.0)
         why = OutputProcessDied(f"the output's process ended (exit code {p.exitcode})")
         with self._lock:  # no call is queued behind this: it would wait for ever
-            self._dead = True
+            link.dead = True
             left = list(pending)
             pending.clear()
         for fut in left:
@@ -315,7 +317,8 @@ class ProcessOutput:
     def _submit(self, what: str, arg: Any = None, now: float | None = None, mono: float | None = None) -> "Future[Any]":
         fut: Future[Any] = Future()
         conn = self._conn
-        if conn is None or self._dead:
+        link = self._link
+        if conn is None or link.dead:
             return self._gone(fut, what, arg)
         if now is None or mono is None:
             now, mono = self.clock.now(), self.clock.monotonic()
@@ -325,7 +328,7 @@ class ProcessOutput:
         if loop is not None:
             fut.add_done_callback(lambda f: loop.call_soon_threadsafe(self._answered, f))
         with self._lock:
-            if self._dead:  # the receiver saw the end of the pipe meanwhile
+            if link.dead:  # the receiver saw the end of the pipe meanwhile
                 return self._gone(fut, what, arg)
             self._pending.append(fut)
             if what == "write":
@@ -495,6 +498,15 @@ def _kill(p: Any, conn: Any) -> None:
         conn.close()
     except OSError:
         pass
+
+
+class _Link:
+    """One process's pipe, as its receiver last saw it."""
+
+    __slots__ = ("dead",)
+
+    def __init__(self, dead: bool) -> None:
+        self.dead = dead
 
 
 class _Failed(Exception):
