@@ -37,7 +37,7 @@ from .records import KINDS
 from .registry import PluginNotFound, Registry
 
 ROLES = ("inputs", "estimators", "outputs")
-_NAME_RE = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.\-]*$")
+_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
 
 
 def known_kind(name: str) -> str:
@@ -53,7 +53,7 @@ KindName = Annotated[str, AfterValidator(known_kind)]
 
 def valid_name(name: str) -> str:
     """A source, estimate or plugin name (one Zenoh key segment), or a ValueError."""
-    if not _NAME_RE.match(name):
+    if not _NAME_RE.fullmatch(name):
         raise ValueError(f"{name!r}: letters, digits, '_', '-' and '.' only (it is a Zenoh key segment)")
     return name
 
@@ -137,7 +137,7 @@ class CoreConfig(BaseModel):
     @field_validator("vessel_id")
     @classmethod
     def _vessel_id(cls, v: str) -> str:
-        if not _NAME_RE.match(v) or "/" in v:
+        if not _NAME_RE.fullmatch(v) or "/" in v:
             raise ValueError("letters, digits, '_', '-' and '.' only (it is a Zenoh key segment)")
         return v
 
@@ -238,7 +238,7 @@ def parse_config(
             continue
         for name, body in section.items():
             where = f"{role}.{name}"
-            if not _NAME_RE.match(name):
+            if not _NAME_RE.fullmatch(name):
                 errors.append((where, "name: letters, digits, '_', '-' and '.' only"))
                 continue
             if not isinstance(body, dict):

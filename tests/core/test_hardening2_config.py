@@ -37,3 +37,14 @@ def test_the_most_a_role_may_have_passes(role, tmp_path, capsys):
     rc = main(["check-config", str(_config(tmp_path, role, MAX_INSTANCES[role]))])
     err = capsys.readouterr().err
     assert rc == 0, err
+
+
+@pytest.mark.parametrize("name", ["gps\n", "gps\r", "a\nb", "ok\n\n"])
+def test_a_name_with_a_line_end_is_refused(name):
+    """`re.match` with `$` let "gps\\n" pass: a name (a source, an instance, a vessel id)
+    is a key segment and a file name, and must be one line."""
+    from edged.config import ConfigError, parse_config
+    from edged.registry import Registry
+
+    with pytest.raises(ConfigError):
+        parse_config({"edged": {"vessel_id": name}}, Registry())
