@@ -177,6 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("fleet", help="live table of every vessel under vessel/*")
     p.add_argument("--zenoh-config", metavar="FILE.json5")
+    p.add_argument("--record", metavar="DIR",
+                   help="also record each vessel's estimates and health: DIR/<id>/<id>-<YYYY-MM-DD>.mcap (UTC days)")
 
     p = sub.add_parser("check-config", help="validate a configuration file")
     p.add_argument("config", metavar="CONFIG")

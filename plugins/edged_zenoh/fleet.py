@@ -4,7 +4,10 @@
 network; `run_fleet` wires it to a zenoh session: it first asks every vessel's
 queryable for its latest values (a table that is full at once instead of after the
 next health beat), then follows `vessel/*/health`, `vessel/*/est/**` and the liveliness
-tokens `vessel/*/alive`, redrawing about once a second.
+tokens `vessel/*/alive`, redrawing about once a second. With a `FleetRecorder`
+(`edged fleet --record DIR`, `fleetrecord`) every sample taken is also recorded, and
+the recorder is flushed once a loop (about once a second); what arrived since the last
+loop is taken before the session closes.
 """
 
 from __future__ import annotations
@@ -103,7 +106,7 @@ class FleetTable:
             return
         try:
             obj = json.loads(payload)
-        except (ValueError, UnicodeDecodeError):
+        except (ValueError, UnicodeDecodeError, RecursionError):  # [[[[… deeper than Python recurses
             obj = None
         if not isinstance(obj, dict):
             self.bad_samples += 1
@@ -161,8 +164,12 @@ def run_fleet(
     stop: threading.Event | None = None,
     clock: Callable[[], float] = time.time,
     query_timeout: float = 2.0,
+    recorder: Any = None,
 ) -> int:
-    """Follow the fleet until `stop` is set, `duration` passed or `refreshes` drawn."""
+    """Follow the fleet until `stop` is set, `duration` passed or `refreshes` drawn.
+
+    `recorder` (a `fleetrecord.FleetRecorder`, opened; its caller closes it) records
+    every sample taken, the latest values the query returns included."""
     stop = stop or threading.Event()
     table = FleetTable()
     session = zenoh.open(to_zenoh(cfg, "fleet zenoh configuration"))
@@ -171,7 +178,10 @@ def run_fleet(
         alive = session.liveliness().declare_subscriber(ALIVE_KEY, zenoh.handlers.FifoChannel(4096), history=True)
 
         def take(sample: zenoh.Sample) -> None:
-            table.update(str(sample.key_expr), sample.payload.to_bytes(), clock())
+            key, data = str(sample.key_expr), sample.payload.to_bytes()
+            table.update(key, data, clock())
+            if recorder is not None:
+                recorder.take(key, data)
 
         def take_alive(sample: zenoh.Sample) -> None:
             table.liveliness(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT, clock())
@@ -187,7 +197,11 @@ def run_fleet(
             for sub in subs:
                 _drain(sub, take)
             _drain(alive, take_alive)
-            out.write(clear + table.render(clock()) + ("" if clear else "\n"))
+            footer = ""
+            if recorder is not None:
+                recorder.flush()
+                footer = recorder.status_line() + "\n"
+            out.write(clear + table.render(clock()) + footer + ("" if clear else "\n"))
             out.flush()
             drawn += 1
             if refreshes is not None and drawn >= refreshes:
@@ -195,6 +209,9 @@ def run_fleet(
             wait = interval if deadline is None else min(interval, deadline - time.monotonic())
             if wait <= 0 or stop.wait(wait):
                 break
+        if recorder is not None:  # what arrived during the last wait is recorded too
+            for sub in subs:
+                _drain(sub, take)
     finally:
         session.close()
     return 0
