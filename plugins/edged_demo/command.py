@@ -125,6 +125,15 @@ async def _demo(
         print(_status_line(rt), file=out, flush=True)
 
 
+def _as_run(argv0: str | None = None) -> str:
+    """How the user ran edged, to print commands they can paste: the script's path
+    (`.venv/bin/edged`), `python -m edged.cli` (argv[0] is then cli.py), or `edged`."""
+    argv0 = sys.argv[0] if argv0 is None else argv0
+    if argv0.endswith(".py"):
+        return f"{shlex.quote(sys.executable)} -m edged.cli"
+    return shlex.quote(argv0) if os.sep in argv0 else "edged"
+
+
 def _truth_step(step: Callable[[float], Any], t: float) -> bool:
     """A truth file that cannot be written is said once and given up, never the demo."""
     try:
@@ -218,7 +227,7 @@ def _say_where(out: TextIO, files: list[Path], truth: TruthWriter | None) -> Non
         print(f"  truth:       {truth_file} (the simulated vessel's true state, {truth.rows} rows)", file=out)
     if not files:
         return
-    edged = sys.argv[0] if os.sep in sys.argv[0] else "edged"  # as the user ran it
+    edged = _as_run()
     f = shlex.quote(str(files[-1]))
     print(f"  look at it:  {edged} inspect {f}", file=out)
     if truth is None or truth_file is None:

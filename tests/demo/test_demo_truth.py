@@ -46,3 +46,13 @@ def test_no_truth_file_when_the_vessel_never_started(tmp_path):
     writer = TruthWriter(tmp_path / "truth.csv", "demo", 0, OriginClock(ManualClock(1.0)))
     assert writer.finish(100.0) is None and writer.rows == 0
     assert not (tmp_path / "truth.csv").exists()
+
+
+def test_the_printed_commands_can_be_pasted_however_edged_was_run():
+    import sys
+
+    from edged_demo.command import _as_run
+
+    assert _as_run("/opt/edged/venv/bin/edged") == "/opt/edged/venv/bin/edged"
+    assert _as_run("edged") == "edged"
+    assert _as_run("/work/edged/cli.py") == f"{sys.executable} -m edged.cli"
