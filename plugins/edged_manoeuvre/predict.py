@@ -66,7 +66,16 @@ class Predictor:
         P = np.array(P, dtype=float)
         i = self.model.yaw.index
         if i is not None:
-            x[i] = 0.0  # the turn rate held, not the wave's yaw acceleration carried on
+            # The turn rate held, not the wave's yaw acceleration carried on: its value,
+            # its variance and its noise alike. Left in, its noise (a wave's, adapted to
+            # ~0.04 rad²/s⁵) integrated into the turn rate as a random walk, and the
+            # heading's variance with it: a 120-s ellipse of 10⁸ m across the track.
+            x[i] = 0.0
+            P[i, :] = 0.0
+            P[:, i] = 0.0
+            Qc = np.array(Qc, dtype=float)
+            Qc[i, :] = 0.0
+            Qc[:, i] = 0.0
         for hz in self.horizons:
             while t < hz - 1e-9:
                 # 10 s steps to 30 s, then 20 s: RK4's relative error at 20 s and

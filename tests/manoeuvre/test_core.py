@@ -730,3 +730,29 @@ def test_the_wave_yaws_accelerometer_noise_only_between_sparse_fixes():
     last_fix = max(m.t for m in ms if m.kind == "position")
     assert not core._between_fixes(last_fix + 0.5)
     assert core._between_fixes(last_fix + SPARSE_FIX + 0.5)
+
+
+@pytest.mark.parametrize("q_yaw_jerk", [1e-7, 0.04, 1.0])
+def test_the_prediction_does_not_carry_the_waves_yaw_noise_minutes_ahead(q_yaw_jerk):
+    """The yaw acceleration is the wave's (τ of seconds): its noise, integrated into the
+    turn rate as a random walk over two minutes, gave a 120-s ellipse of 10⁸ m across
+    the track (the demo, every scenario with the tuned default). The predictor holds
+    the turn rate: the yaw acceleration's value, variance and noise are left out, so
+    the ellipses stay what the turn rate's own uncertainty makes them."""
+    from edged_manoeuvre.model import PSI
+
+    core = _core(q_yaw_jerk=q_yaw_jerk)
+    i = core.model.yaw.index
+    assert i is not None  # the tuned default has the yaw acceleration state
+    n = core.Qc.shape[0]
+    x = np.zeros(n)
+    x[2] = 5.0  # 5 m/s north
+    P = np.eye(n) * 1e-6  # (the turn rate known to 0.06 °/s)
+    P[i, i] = 0.5  # a wave's yaw acceleration, uncertain
+    Qc = core.Qc.copy()
+    Qc[i, i] = q_yaw_jerk
+    runs = core.predictor.run(x, P, Qc)
+    rows = core.predictor.predicted(runs, lambda n_, e_: (57.6 + n_ / 111_000.0, 11.5))
+    majors = {r["dt"]: r["std_major"] for r in rows}
+    assert majors[120.0] < 1000.0, majors  # metres, not the 10⁸ of before
+    assert runs[-1][2][PSI, PSI] < 1.0  # the heading's variance stays below a radian²
