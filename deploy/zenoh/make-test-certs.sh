@@ -10,7 +10,9 @@
 #   CLIENT.pem, CLIENT.key         one client certificate per CLIENT, its common name
 #                                  being CLIENT (what router-tls.json5's access control
 #                                  matches: vessel-<id>, fleet-dashboard)
-# CLIENT defaults to: vessel-1 vessel-2 fleet-dashboard.
+# CLIENT defaults to: vessel-1 vessel-2 fleet-dashboard. When DIR already holds ca.pem
+# and ca.key, that CA signs the new certificates (add a vessel to a fleet without
+# invalidating the others'); the router's certificate is then kept too.
 # Environment: ROUTER_NAMES (subjectAltName, default DNS:localhost,IP:127.0.0.1),
 # DAYS (validity, default 30), CA_NAME (default "edged test site CA").
 # For a real fleet use your organisation's PKI; these keys are not protected.
@@ -31,7 +33,9 @@ CA_NAME=${CA_NAME:-edged test site CA}
 mkdir -p "$DIR"
 cd "$DIR"
 umask 077
-cat > openssl.cnf <<CNF
+CNF=$(mktemp)
+trap 'rm -f "$CNF"' EXIT
+cat > "$CNF" <<CNF
 [req]
 distinguished_name = dn
 prompt = no
@@ -51,28 +55,31 @@ extendedKeyUsage = clientAuth
 CNF
 
 newkey="-newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes"
-serial=1000
 
-# shellcheck disable=SC2086 # $newkey is several words on purpose
-openssl req -x509 -config openssl.cnf -extensions ca $newkey -days "$DAYS" \
-    -subj "/CN=$CA_NAME" -keyout ca.key -out ca.pem 2>/dev/null
+if [ -s ca.pem ] && [ -s ca.key ]; then
+    echo "$DIR: the CA already there signs the new certificates"
+    reuse=1
+else
+    # shellcheck disable=SC2086 # $newkey is several words on purpose
+    openssl req -x509 -config "$CNF" -extensions ca $newkey -days "$DAYS" \
+        -subj "/CN=$CA_NAME" -keyout ca.key -out ca.pem 2>/dev/null
+    reuse=0
+fi
 
 leaf() {  # stem, common name, extensions section
-    serial=$((serial + 1))
     # shellcheck disable=SC2086
-    openssl req -new -config openssl.cnf $newkey -subj "/CN=$2" -keyout "$1.key" -out "$1.csr" 2>/dev/null
-    openssl x509 -req -in "$1.csr" -CA ca.pem -CAkey ca.key -set_serial "$serial" -days "$DAYS" \
-        -extfile openssl.cnf -extensions "$3" -out "$1.pem" 2>/dev/null
+    openssl req -new -config "$CNF" $newkey -subj "/CN=$2" -keyout "$1.key" -out "$1.csr" 2>/dev/null
+    openssl x509 -req -in "$1.csr" -CA ca.pem -CAkey ca.key -set_serial "0x$(openssl rand -hex 8)" \
+        -days "$DAYS" -extfile "$CNF" -extensions "$3" -out "$1.pem" 2>/dev/null
     rm -f "$1.csr"
 }
 
-leaf router localhost server
+[ "$reuse" = 1 ] && [ -s router.pem ] || leaf router localhost server
 for name in "$@"; do
     case $name in
         */* | .* | "") echo "$0: not a certificate name: $name" >&2; exit 2 ;;
     esac
     leaf "$name" "$name" client
 done
-rm -f openssl.cnf
 chmod 0644 ./*.pem
 echo "$DIR: ca.pem, router.pem and $(printf '%s.pem ' "$@")(with their .key files)"
