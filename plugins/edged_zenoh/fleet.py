@@ -32,6 +32,12 @@ ALIVE_KEY = f"{PREFIX}/*/alive"
 STALE_AFTER = 5.0
 
 
+def _bearing(rad: float) -> str:
+    """A heading in [0, 360) degrees, rounded first: 359.96° is 000.0, never 360.0."""
+    d = round(math.degrees(rad) % 360.0, 1)
+    return f"{0.0 if d >= 360.0 else d:05.1f}"
+
+
 @dataclass
 class VesselRow:
     vessel_id: str
@@ -140,7 +146,7 @@ class FleetTable:
             r = self.rows[vid]
             seen = "-" if r.last_seen is None else f"{max(0.0, now - r.last_seen):.1f} s"
             stw = "-" if r.stw is None else f"{r.stw:.2f}"
-            hdg = "-" if r.heading is None else f"{math.degrees(r.heading):.1f}"
+            hdg = "-" if r.heading is None else _bearing(r.heading)
             lat = "-" if r.lat is None else f"{r.lat:.5f}"
             lon = "-" if r.lon is None else f"{r.lon:.5f}"
             lines.append(f"{vid:<16} {seen:>10} {stw:>8} {hdg:>8} {lat:>10} {lon:>11}  {self.state(r, now)}")

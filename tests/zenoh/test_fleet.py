@@ -38,7 +38,7 @@ def test_table_shows_stw_heading_position_and_state():
     t.update("vessel/borealis/health", _j({"t": T0, "inputs": {"can0": {"state": "backoff", "ok": False}}}), 101.0)
     text = t.render(now=101.5)
     assert text.splitlines()[0].split()[:2] == ["VESSEL", "LAST"]
-    assert _row(text, "aurora").split() == ["aurora", "1.5", "s", "6.25", "90.0", "60.10000", "24.95000", "ok"]
+    assert _row(text, "aurora").split() == ["aurora", "1.5", "s", "6.25", "090.0", "60.10000", "24.95000", "ok"]
     assert _row(text, "borealis").endswith("degraded can0:backoff")
     # Silence makes a vessel stale; a withdrawn liveliness token makes it offline.
     assert _row(t.render(now=106.0), "aurora").endswith("stale")
@@ -91,3 +91,10 @@ def test_fleet_command_bad_config_is_a_usage_error(tmp_path, capsys):
     bad.write_text("{mode: ")
     assert fleet_main(argparse.Namespace(zenoh_config=str(bad))) == 2
     assert "bad.json5" in capsys.readouterr().err
+
+
+def test_a_heading_just_under_a_full_turn_is_000_not_360():
+    from edged_zenoh.fleet import _bearing
+
+    assert _bearing(2 * math.pi - 1e-5) == "000.0"
+    assert _bearing(math.radians(5.3)) == "005.3" and _bearing(-math.radians(1.0)) == "359.0"
