@@ -12,6 +12,8 @@ import sys
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from .angles import TWO_PI, wrap_2pi
+
 __all__ = [
     "Field",
     "KindSpec",
@@ -29,22 +31,12 @@ __all__ = [
     "wrap_angle",
 ]
 
-TWO_PI = 2.0 * math.pi
 
 
 def wrap_angle(a: float) -> float:
-    """Map an angle onto [0, 2π), the convention of every angle in a measurement.
-
-    For sums of angles that are each in range (a magnetic heading plus a variation);
-    it is not a way to accept a reading that is out of range, which callers reject
-    before. −0.0 (and a negative hair that rounds to 2π) comes out as 0.0.
-    """
-    a = math.fmod(a, TWO_PI)
-    if a < 0.0:
-        a += TWO_PI
-    # fmod of a value a hair below 2π plus 2π may round to 2π itself; `a == 0.0` is
-    # also true of −0.0, which must never be emitted.
-    return 0.0 if a >= TWO_PI or a == 0.0 else a
+    """Map an angle onto [0, 2π), the convention of every angle in a measurement
+    (`edged.angles.wrap_2pi`, the one way)."""
+    return wrap_2pi(a)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, slots=True)

@@ -25,7 +25,8 @@ from typing import Callable
 
 import numpy as np
 
-TWO_PI = 2.0 * math.pi
+from edged.angles import TWO_PI, wrap_2pi, wrap_pi  # noqa: F401 (used by the filters through here)
+
 DEG = math.pi / 180.0
 
 #: Index of ψ (heading, rad, from north, clockwise) and r (yaw rate) in both models.
@@ -70,17 +71,6 @@ class YawAcceleration:
             A[i, i] = -1.0 / self.tau
 
 
-def wrap_pi(a: np.ndarray | float) -> np.ndarray | float:
-    """An angle or angle difference in (−π, π]."""
-    return math.pi - (math.pi - a) % TWO_PI
-
-
-def wrap_2pi(a: np.ndarray | float) -> np.ndarray | float:
-    """An angle in [0, 2π)."""
-    w = np.mod(a, TWO_PI)
-    if isinstance(w, np.ndarray):
-        return np.where(w >= TWO_PI, 0.0, w)
-    return 0.0 if w >= TWO_PI else float(w)  # -1e-17 % 2π rounds to 2π
 
 
 def circular_mean(angles: np.ndarray, weights: np.ndarray | None = None) -> float:

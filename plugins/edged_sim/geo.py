@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from edged.angles import wrap_2pi, wrap_pi  # noqa: F401 (the simulator's modules use them through here)
+
 KNOT = 1852.0 / 3600.0  #: m/s per knot
 _A = 6378137.0  # WGS-84 semi-major axis
 _E2 = 6.69437999014e-3  # WGS-84 first eccentricity squared
@@ -41,12 +43,3 @@ class LocalFrame:
         return np.radians(lat - self.lat0) * rm, np.radians(lon - self.lon0) * rp
 
 
-def wrap_2pi(a: np.ndarray) -> np.ndarray:
-    """Angles onto [0, 2π), the convention of every angle edged emits."""
-    out = np.mod(a, 2.0 * np.pi)
-    return np.where(out >= 2.0 * np.pi, 0.0, out)
-
-
-def wrap_pi(a: np.ndarray) -> np.ndarray:
-    """Angle differences onto (−π, π]."""
-    return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
