@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import math
 from typing import Any, Callable
+from edged.units import KNOT
 
 #: What a missing, null or stale value is shown as.
 DASH = "—"
 #: Metres per second in one knot (1852 m per hour).
-KNOT = 1852.0 / 3600.0
 
 
 def num(x: Any) -> float | None:

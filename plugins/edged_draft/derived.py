@@ -9,11 +9,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from edged.units import KNOT
 
 STATIONS = ("fore", "mid", "aft")
 SIDES = ("port", "stbd")
 MARKS = tuple(f"{st}_{sd}" for st in STATIONS for sd in SIDES)
-KNOT = 1852.0 / 3600.0
 
 
 def partner(mark: str) -> str:

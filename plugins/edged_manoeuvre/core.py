@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from edged.geo import LocalPlane
+from edged.units import finite_numbers as _finite
 from edged.innovation import InnovationMonitor
 from edged.records import Estimate, Measurement
 
@@ -1080,8 +1081,6 @@ def _whiten(y: np.ndarray, S: np.ndarray) -> np.ndarray:
         return np.full_like(y, np.nan)
 
 
-def _finite(*xs: Any) -> bool:
-    return all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)
 
 
 __all__ = ["ManoeuvreCore", "wrap_pi"]

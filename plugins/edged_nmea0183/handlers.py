@@ -26,8 +26,8 @@ from edged.records import TWO_PI, wrap_angle
 
 from .sentences import field_index
 from .timeofday import parse_tod
+from edged.units import KNOT
 
-KNOT = 1852.0 / 3600.0  # m/s
 KMH = 1.0 / 3.6  # m/s
 FOOT = 0.3048  # m
 FATHOM = 1.8288  # m

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from edged.angles import wrap_2pi, wrap_pi  # noqa: F401 (the simulator's modules use them through here)
+from edged.units import KNOT  # noqa: F401 (used through here)
 
-KNOT = 1852.0 / 3600.0  #: m/s per knot
 _A = 6378137.0  # WGS-84 semi-major axis
 _E2 = 6.69437999014e-3  # WGS-84 first eccentricity squared
 

@@ -15,6 +15,7 @@ from collections import Counter, deque
 from typing import Any
 
 from edged.innovation import InnovationMonitor
+from edged.units import finite_numbers as _finite
 from edged.records import Estimate, Measurement
 
 from .config import StwConfig
@@ -586,5 +587,3 @@ class StwCore:
         return out
 
 
-def _finite(*xs: Any) -> bool:
-    return all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)
