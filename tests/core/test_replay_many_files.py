@@ -83,11 +83,15 @@ def _write(folder: Path, times: list[list[float]]) -> list[Path]:
     return paths
 
 
-async def _replay(log: CountedLog, paths: list[Path]) -> tuple[Runtime, list[Any], Replayer]:
+def _replayer(log: CountedLog, paths: list[Path]) -> tuple[Runtime, Replayer]:
     ListOutput.instances.clear()
     reg = _registry(log)
     rt = Runtime(parse_config({"outputs": {"rec": {"type": "list"}}}, reg), reg, ReplayClock(), replay=True)
-    rep = Replayer(rt, paths)
+    return rt, Replayer(rt, paths)
+
+
+async def _replay(log: CountedLog, paths: list[Path]) -> tuple[Runtime, list[Any], Replayer]:
+    rt, rep = _replayer(log, paths)
     await rt.start()
     try:
         await rep.run()
@@ -131,10 +135,7 @@ async def test_overlapping_files_come_out_as_heapq_merges_them(tmp_path, seed):
 async def test_a_stop_while_thousands_of_first_times_are_read_is_heard_within_a_few_files(tmp_path):
     paths = _write(tmp_path, [[1_700_000_000.0 + j] for j in range(400)])
     log = CountedLog()
-    ListOutput.instances.clear()
-    reg = _registry(log)
-    rt = Runtime(parse_config({"outputs": {"rec": {"type": "list"}}}, reg), reg, ReplayClock(), replay=True)
-    rep = Replayer(rt, paths)
+    rt, rep = _replayer(log, paths)
     await rt.start()
     try:
         task = asyncio.get_running_loop().create_task(rep.run())
