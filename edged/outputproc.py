@@ -516,17 +516,3 @@ class _Failed(Exception):
         super().__init__(message)
         self.message = message
         self.report = report
-
-
-def _merge(first: dict[str, Any] | None, second: dict[str, Any] | None) -> dict[str, Any] | None:
-    """Two reports as one (the start's and the first call's)."""
-    if first is None:
-        return second
-    if second is None:
-        return first
-    counters = dict(first["counters"])
-    for k, n in second["counters"].items():
-        counters[k] = counters.get(k, 0) + n
-    return {**second, "counters": counters, "logs": first["logs"] + second["logs"],
-            "info": {**first["info"], **second["info"]}}
-
