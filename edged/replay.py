@@ -27,110 +27,33 @@ the replay sit idle.
 from __future__ import annotations
 
 import asyncio
-import gc
 import heapq
 import io
 import logging
+import math
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Awaitable, BinaryIO, Callable, Iterable, Iterator
+from typing import Any, Awaitable, Callable, Iterator
 
 from .clock import ReplayClock
 from .health import ComponentHealth
 from .plugin import Decoder, LogReader, ReplayOptions
 from .records import HealthRecord, RawRecord
-from .registry import Registry
 from .runtime import Runtime
+from .logformats import CountingReader, detect, file_size
+from .quietgc import QuietGC
+from .timemerge import merge2
 from .timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits
 
 log = logging.getLogger("edged.replay")
 
-#: What `detect` gives the readers' `sniff`: enough for a few hundred lines, so that
-#: a noisy start (line noise before a serial logger synchronised) does not hide the
-#: format of the rest.
-HEAD_BYTES = 32768
 #: Records between two looks at the outputs' queues and the progress bar.
 BATCH = 512
 #: Seconds a replay waiting for a full worker waits at most before it looks again.
 WORKER_WAIT = 0.05
 #: Longest wall-time wait of the pacing (`speed` > 0); a longer gap is skipped.
 MAX_WAIT = 10.0
-
-
-class UnknownFormat(ValueError):
-    """A file no installed log reader can read (names the file)."""
-
-
-class CountingReader(io.RawIOBase):
-    """Wraps a binary file to count the bytes read, for the progress bar."""
-
-    def __init__(self, f: BinaryIO, source: str = "") -> None:
-        self._f = f
-        self.count = 0
-        #: The source the file's records are of (its name without the suffix).
-        self.source = source
-
-    def readable(self) -> bool:
-        return True
-
-    def seekable(self) -> bool:
-        return self._f.seekable()
-
-    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
-        return self._f.seek(offset, whence)
-
-    def tell(self) -> int:
-        return self._f.tell()
-
-    def readinto(self, b: Any) -> int:
-        n = self._f.readinto(b)  # type: ignore[attr-defined]
-        if n:
-            self.count += n
-        return n or 0
-
-    def close(self) -> None:
-        self._f.close()
-        super().close()
-
-
-#: The priority of a reader whose `priority` is not an integer: after every other.
-LAST = 1 << 30
-
-
-def log_readers(registry: Registry) -> list[tuple[str, LogReader]]:
-    """Every installed log reader, in sniff order: `priority` (lower first), then name.
-
-    Each is loaded to learn its priority: a reader's module is light (DESIGN §1), the
-    decoding stacks are imported by `open` and by the decoders, for its files only."""
-    readers = []
-    for name, reader in registry.iter("logs"):
-        prio = getattr(reader, "priority", None)
-        if not isinstance(prio, int) or isinstance(prio, bool):
-            log.warning("log reader %s: priority %r is not an integer: sniffed last", name, prio)
-            prio = LAST
-        readers.append((prio, name, reader))
-    readers.sort(key=lambda r: (r[0], r[1]))
-    return [(name, reader) for _, name, reader in readers]
-
-
-def detect(path: Path, registry: Registry) -> tuple[str, LogReader]:
-    """The log reader of `path`, recognised by its first `HEAD_BYTES`: the first
-    reader, in priority order, whose `sniff` says yes."""
-    try:
-        with open(path, "rb") as f:
-            head = f.read(HEAD_BYTES)
-    except OSError as exc:
-        raise UnknownFormat(f"{path}: cannot read: {exc.strerror or exc}") from None
-    readers = log_readers(registry)
-    for name, reader in readers:
-        try:
-            if reader.sniff(head):
-                return name, reader
-        except Exception as exc:  # a reader's sniff must not decide for the others
-            log.warning("log reader %s: sniff failed on %s: %s", name, path, exc)
-    kinds = ", ".join(n for n, _ in readers) or "none installed"
-    raise UnknownFormat(f"{path}: format not recognised (readers: {kinds})")
 
 
 #: Seconds a record may lie behind the replay's clock before its log counts as having
@@ -201,7 +124,7 @@ class Replayer:
         self._inputs: dict[str, str] = {}
         self._protocols: dict[str, str] | None = None
         self._streams: list[CountingReader] = []
-        self.total_bytes = sum(_size(p) for p in paths)
+        self.total_bytes = sum(file_size(p) for p in paths)
         #: Bytes read from files already closed (the progress bar's count).
         self._bytes_done = 0
         self._readers: dict[Path, tuple[str, LogReader]] = {}
@@ -348,36 +271,24 @@ class Replayer:
 
     async def run(self) -> ReplayStats:
         """Replay every record; returns the counts for the summary."""
-        # A publisher that is not linked yet would lose the voyage's start (counted,
-        # but lost): every output gets its bounded chance to link first.
-        await self.rt.outputs_ready()
+        merged = await self._records()
         # Look at the queues often enough that none fills between two looks, however
         # small it is configured (a raw record makes a few measurements): the replay
         # then never drops, whatever its speed.
         batch = max(1, min([BATCH, *(w.sub.queue.maxsize // 8 for w in self.rt.workers)]))
-        if len(self.paths) > 2:
-            merged = await self._in_start_order()
-        else:
-            iters = [self._open(p) for p in self.paths]
-            merged = _merge2(*iters) if len(iters) == 2 else iters[0]
-        rt = self.rt
-        publish = rt.router.publish
-        clock = self.clock
-        stats = self.stats
+        publish, clock, stats = self.rt.router.publish, self.clock, self.stats
         meas = stats.measurements
-        interval = rt.config.edged.health_interval
-        next_tick: float | None = None
+        interval = self.rt.config.edged.health_interval
+        next_tick = math.inf
         loop = asyncio.get_running_loop()
-        wall0 = loop.time()
-        next_flush = wall0 + interval
+        self._wall0 = loop.time()
+        self._next_flush = self._wall0 + interval
         t0: float | None = None
         n = 0
         top = self.time_limits.latest
         speed = self.speed
-        max_wait = self.max_wait
-        sleep = self._sleep
         decoders = self._decoders
-        quiet_gc = _QuietGC()
+        quiet_gc = QuietGC()
         seen: dict[str, int] = {}  # records per source so far (to name where a step is)
         try:
             for raw in merged:
@@ -386,8 +297,7 @@ class Replayer:
                     self._refuse(raw)
                     continue
                 if t0 is None:
-                    t0 = t
-                    stats.t_first = t
+                    t0 = stats.t_first = t
                     next_tick = t + interval
                     # after the outputs are linked, at the first record: data flows now
                     log.info("event=replay-started inputs=%d speed=%g", len(self.paths), speed)
@@ -396,17 +306,7 @@ class Replayer:
                 seen[raw.source] = seen.get(raw.source, 0) + 1
                 clock.advance_to(t)
                 if speed > 0:
-                    delay = wall0 + (t - t0) / speed - loop.time()
-                    if delay > max_wait:
-                        stats.gaps_skipped += 1
-                        log.warning(
-                            "replay: %.1f s without data before %s at t=%.3f "
-                            "(%.1f s of wall time at --speed %g): skipped, not waited for",
-                            delay * speed, raw.source, t, delay, speed,
-                        )
-                        wall0 -= delay  # this record is due now; pacing goes on from it
-                    elif delay > 0:
-                        await sleep(delay)
+                    await self._pace(raw, t - t0, loop)
                 publish(raw)
                 dec = decoders.get((raw.protocol, raw.source), _UNKNOWN)
                 if dec is _UNKNOWN:
@@ -419,27 +319,62 @@ class Replayer:
                         meas[key] = meas.get(key, 0) + 1
                         publish(m)
                 n += 1
-                if next_tick is not None and clock.now() >= next_tick:
-                    # Health in data time (the same log gives the same health records);
-                    # the outputs' flush in wall time (fsync per second, not per record).
-                    wall = loop.time()
-                    rt.tick(flush=wall >= next_flush)
-                    if wall >= next_flush:
-                        next_flush = wall + interval
-                    next_tick = clock.now() + interval
+                if clock.now() >= next_tick:
+                    next_tick = self._tick(loop, interval)
                 if n % batch == 0:
                     await self._yield()
-            stats.records = n
-            stats.t_last = clock.now() if t0 is not None else None
-            await rt.finish_workers(patient=True)  # every record stepped, however long
-            snap = rt.health_snapshot()
-            publish(HealthRecord(snap["t"], snap))
-            await self._yield(final=True)
+            await self._finish(n, t0 is not None)
         finally:
             quiet_gc.restore()
             for s in self._streams:
                 s.close()
         return stats
+
+    async def _records(self) -> Iterator[RawRecord]:
+        """The records of every log in time order, once every output had its bounded
+        chance to link (a publisher not linked yet would lose the voyage's start:
+        counted, but lost)."""
+        await self.rt.outputs_ready()
+        if len(self.paths) > 2:
+            return await self._in_start_order()
+        iters = [self._open(p) for p in self.paths]
+        return merge2(*iters) if len(iters) == 2 else iters[0]
+
+    async def _pace(self, raw: RawRecord, elapsed: float, loop: asyncio.AbstractEventLoop) -> None:
+        """`--speed N`: wait until `raw` is due, `elapsed` data seconds after the first
+        record; a gap longer than `max_wait` of wall time is skipped, and said."""
+        delay = self._wall0 + elapsed / self.speed - loop.time()
+        if delay > self.max_wait:
+            self.stats.gaps_skipped += 1
+            log.warning(
+                "replay: %.1f s without data before %s at t=%.3f "
+                "(%.1f s of wall time at --speed %g): skipped, not waited for",
+                delay * self.speed, raw.source, raw.t, delay, self.speed,
+            )
+            self._wall0 -= delay  # this record is due now; pacing goes on from it
+        elif delay > 0:
+            await self._sleep(delay)
+
+    def _tick(self, loop: asyncio.AbstractEventLoop, interval: float) -> float:
+        """Health in data time (the same log gives the same health records); the
+        outputs' flush in wall time (fsync per second, not per record). Returns the
+        data time of the next tick."""
+        wall = loop.time()
+        flush = wall >= self._next_flush
+        self.rt.tick(flush=flush)
+        if flush:
+            self._next_flush = wall + interval
+        return self.clock.now() + interval
+
+    async def _finish(self, n: int, any_record: bool) -> None:
+        """The end of the logs: every record stepped by the estimators, however long
+        that takes, then the last health."""
+        self.stats.records = n
+        self.stats.t_last = self.clock.now() if any_record else None
+        await self.rt.finish_workers(patient=True)
+        snap = self.rt.health_snapshot()
+        self.rt.router.publish(HealthRecord(snap["t"], snap))
+        await self._yield(final=True)
 
     def _behind(self, raw: RawRecord, now: float, index: int) -> None:
         """A record far behind the replay's clock: its log's time stepped back (two
@@ -483,41 +418,6 @@ class Replayer:
             await rt.output_progress(limit, WORKER_WAIT)
 
 
-class _QuietGC:
-    """The garbage collector's settings for the replay loop, restored by `restore()`.
-
-    The objects that exist when the loop starts (modules, plugins, configuration)
-    live as long as the replay: they are frozen out of the collector's view, so that
-    its full collections no longer walk every imported module (40 ms each, 4 % of a
-    replay). The loop's own records die young (reference counting frees them), but
-    the outputs' queues fill in bursts of thousands: a young-generation threshold
-    of 50,000 instead of 700 spares hundreds of collections that would only find
-    those queued records alive (another 2 %).
-    """
-
-    YOUNG = 50_000
-
-    def __init__(self) -> None:
-        self._threshold = gc.get_threshold()
-        gc.freeze()
-        gc.set_threshold(max(self._threshold[0], self.YOUNG), *self._threshold[1:])
-
-    def restore(self) -> None:
-        gc.set_threshold(*self._threshold)
-        gc.unfreeze()
-
-
-def _t(r: RawRecord) -> float:
-    return r.t
-
-
-def _size(path: Path) -> int:
-    try:
-        return path.stat().st_size
-    except OSError:
-        return 0
-
-
 #: The sort key of a file without a first record, or of a record whose time is not a
 #: number: before every other (opened, and sent on, at once).
 _NONE = float("-inf")
@@ -540,31 +440,3 @@ class _UnseenHealth(ComponentHealth):
 
 
 _UNKNOWN = object()  # no decoder looked up yet for a (protocol, source)
-
-
-def _merge2(first: Iterable[RawRecord], second: Iterable[RawRecord]) -> Iterator[RawRecord]:
-    """`heapq.merge(first, second, key=_t)` for the common replay of two logs (NMEA
-    and candump): the same order, ties to `first`, without a key call and a heap
-    operation per record (a microsecond each, millions of times an hour). A record
-    whose time is NaN (refused by the replay) goes out as soon as it is read, rather
-    than holding back the rest of its file."""
-    it1, it2 = iter(first), iter(second)
-    r2 = next(it2, None)
-    if r2 is None:
-        yield from it1
-        return
-    t2 = r2.t
-    for r1 in it1:
-        t1 = r1.t
-        if t1 == t1:  # (NaN: at once)
-            while not t2 >= t1:  # the second's earlier records, and a NaN one at once
-                yield r2
-                r2 = next(it2, None)
-                if r2 is None:
-                    yield r1
-                    yield from it1
-                    return
-                t2 = r2.t
-        yield r1
-    yield r2
-    yield from it2

@@ -14,11 +14,12 @@ from pathlib import Path
 from typing import Any, Awaitable, Callable, TextIO
 
 from edged.clock import LiveClock
-from edged.commands import run_daemon
+from edged.runcmd import run_daemon
 from edged.config import ConfigError, parse_config
 from edged.logs import setup_logging
 from edged.registry import Registry
 from edged.runtime import Runtime
+from edged.subcommand import Subcommand, positive_seconds, zenoh_options
 
 from .truth import OriginClock, TruthWriter
 
@@ -237,3 +238,14 @@ def _say_where(out: TextIO, files: list[Path], truth: TruthWriter | None) -> Non
     warmup = "" if truth.played >= 3 * DEFAULT_WARMUP_S else f" --warmup {truth.played // 3:g}"
     print(f"  score it:    {edged} score {f} --truth {t}{warmup}", file=out)
     print(f"  plot it:     {edged} plot {f} --truth {t} -o demo.png", file=out)
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--duration", type=positive_seconds, default=None, metavar="S", help="stop after S seconds (default: until Ctrl-C)")
+    p.add_argument("--record-dir", metavar="DIR", help="where to record (default ./edged-demo-<UTC start>/)")
+    p.add_argument("--no-zenoh", action="store_true", help="do not publish over zenoh")
+    zenoh_options(p)
+
+
+#: `edged demo` (entry point `edged.commands: demo`).
+COMMAND = Subcommand("run the built-in simulated vessel end to end", arguments, main)

@@ -15,7 +15,7 @@ from mcap.exceptions import McapError
 
 from edged.health import ComponentHealth
 from edged.records import RawRecord
-from edged.replay import UnknownFormat
+from edged.logformats import UnknownFormat
 from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
 from .channels import RAW_PREFIX, NotRaw, raw_from_message

@@ -13,7 +13,8 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
+from edged.registry import Registry
+from edged.subcommand import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, Subcommand, seed  # DESIGN §4
 
 from .run import Simulation
 from .grid import help_text
@@ -22,7 +23,7 @@ from .waves import parse_waves
 from .writers import write_run
 
 
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     try:
         scenario = lookup(args.scenario)
     except ValueError as exc:
@@ -53,3 +54,17 @@ def main(args: argparse.Namespace) -> int:
     files = ", ".join(f"{k} {v}" for k, v in meta["files"].items())
     print(f"{scenario.name}: {sim.duration:.0f} s, seed {sim.seed} -> {out} ({files})")
     return EXIT_OK
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", metavar="SCENARIO")
+    p.add_argument("--out", required=True, metavar="DIR")
+    p.add_argument("--duration", type=float, default=None, metavar="S")
+    p.add_argument("--seed", type=seed, default=0, metavar="N")
+    p.add_argument("--waves", metavar="SPEC", default=None,
+                   help="the sea instead of the scenario's: regular:AMPLITUDE,PERIOD[,FROM_DEG] or "
+                        "jonswap:HS,TP[,FROM_DEG] (m, s, degrees true; FROM_DEG defaults to the scenario's)")
+
+
+#: `edged sim` (entry point `edged.commands: sim`).
+COMMAND = Subcommand("simulate a vessel and write its sensor logs and truth", arguments, main)

@@ -21,7 +21,8 @@ from typing import Any, Iterable, Iterator, Mapping, TextIO
 
 import zenoh
 
-from edged.cli import EXIT_FAILURE, EXIT_OK, EXIT_USAGE  # the exit codes of DESIGN §4
+from edged.registry import Registry
+from edged.subcommand import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, Subcommand  # DESIGN §4
 
 from .fleet import run_fleet
 from .fleetrecord import MAX_VESSELS, FleetRecorder, FleetRecordError
@@ -103,7 +104,7 @@ def run_router(cfg: Mapping[str, Any], out: TextIO, stop: threading.Event) -> in
     return EXIT_OK
 
 
-def router_main(args: argparse.Namespace) -> int:
+def router_main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     try:
         cfg = command_config(ROUTER_DEFAULTS, getattr(args, "zenoh_config", None))
     except ZenohConfigError as exc:
@@ -114,7 +115,7 @@ def router_main(args: argparse.Namespace) -> int:
         return run_router(cfg, getattr(args, "out", None) or sys.stdout, stop)
 
 
-def fleet_main(args: argparse.Namespace) -> int:
+def fleet_main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     """`edged fleet [--record DIR]`; `args.out`, `duration`, `refreshes`, `interval` are
     optional (tests)."""
     try:
@@ -160,3 +161,18 @@ def fleet_main(args: argparse.Namespace) -> int:
         if recorder.losses and rc == EXIT_OK:
             rc = EXIT_FAILURE
     return rc
+
+
+def router_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--zenoh-config", metavar="FILE.json5")
+
+
+def fleet_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--zenoh-config", metavar="FILE.json5")
+    p.add_argument("--record", metavar="DIR",
+                   help="also record each vessel's estimates and health: DIR/<id>/<id>-<YYYY-MM-DD>.mcap (UTC days)")
+
+
+#: `edged router` and `edged fleet` (entry points `edged.commands: router, fleet`).
+ROUTER = Subcommand("a zenoh router for a ship or a small shore site", router_arguments, router_main)
+FLEET = Subcommand("live table of every vessel under vessel/*", fleet_arguments, fleet_main)

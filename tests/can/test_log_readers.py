@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from edged.registry import Registry
-from edged.replay import detect, log_readers
+from edged.logformats import detect, log_readers
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 
@@ -112,7 +112,7 @@ _PROBE = """
 import sys
 from pathlib import Path
 from edged.registry import Registry
-from edged.replay import detect
+from edged.logformats import detect
 print(detect(Path(sys.argv[1]), Registry())[0])
 print(" ".join(sorted(m for m in sys.modules if m.split(".")[0] in {MODULES})))
 """

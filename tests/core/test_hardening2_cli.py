@@ -103,12 +103,12 @@ def test_a_zenoh_config_that_is_no_text_is_refused_before_anything_starts(comman
 @pytest.mark.parametrize("zenoh_out", [False, True])
 def test_run_says_when_a_zenoh_config_is_given_that_no_plugin_reads(zenoh_out, tmp_path: Path, monkeypatch, capsys):
     """A good file given where no zenoh input or output is configured: not silent."""
-    import edged.commands as commands
+    import edged.runcmd as runcmd
 
     async def stopped_at_once(rt, *a, **k):
         return 0
 
-    monkeypatch.setattr(commands, "run_daemon", stopped_at_once)
+    monkeypatch.setattr(runcmd, "run_daemon", stopped_at_once)
     z = tmp_path / "z.json5"
     z.write_text('{ mode: "client" }\n')
     cfg = tmp_path / "edged.toml"

@@ -171,7 +171,7 @@ def test_the_summary_says_what_the_replay_refused_and_skipped(registry):
     import io as _io
 
     from edged.clock import ReplayClock
-    from edged.commands import print_summary
+    from edged.replaysummary import print_summary
     from edged.config import parse_config
     from edged.replay import ReplayStats
     from edged.runtime import Runtime

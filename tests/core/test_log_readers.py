@@ -18,7 +18,8 @@ from edged.health import ComponentHealth
 from edged.plugin import LogReader, ReplayOptions
 from edged.records import Measurement, RawRecord
 from edged.registry import Registry
-from edged.replay import Replayer, UnknownFormat, detect, log_readers
+from edged.logformats import UnknownFormat, detect, log_readers
+from edged.replay import Replayer
 from edged.runtime import Runtime
 
 

@@ -7,7 +7,7 @@ import math
 import random
 
 from edged.records import RawRecord
-from edged.replay import _merge2, _t
+from edged.timemerge import merge2 as _merge2, _t
 
 
 def recs(name: str, times: list[float]) -> list[RawRecord]:

@@ -10,7 +10,7 @@ import pytest
 from core_dummies import ListOutput, SumEstimator
 
 from edged.clock import ManualClock
-from edged.commands import run_daemon
+from edged.runcmd import run_daemon
 from edged.config import parse_config
 from edged.health import ComponentHealth
 from edged.records import HealthRecord, Measurement

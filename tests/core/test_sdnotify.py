@@ -14,7 +14,7 @@ import pytest
 from core_dummies import ListOutput
 
 from edged.clock import ManualClock
-from edged.commands import run_daemon
+from edged.runcmd import run_daemon
 from edged.config import parse_config
 from edged.runtime import Runtime
 from edged.sdnotify import Notifier, feed_watchdog, watchdog_period

@@ -351,7 +351,7 @@ def _health() -> ComponentHealth:
 
 
 def test_replay_reader_names_a_file_holding_only_the_magic():
-    from edged.replay import UnknownFormat
+    from edged.logformats import UnknownFormat
 
     with pytest.raises(UnknownFormat, match="no records: f holds only the MCAP magic"):
         list(MCAP.open(io.BytesIO(MAGIC), "f", _health(), ReplayOptions()))
@@ -502,7 +502,7 @@ def test_fuzz_the_replay_reading_path(bases, monkeypatch, data):
 
     # What replay gets: raw records with a finite time and bytes; never an exception;
     # what could not be read is counted in the source's health.
-    from edged.replay import UnknownFormat
+    from edged.logformats import UnknownFormat
 
     h = _health()
     try:

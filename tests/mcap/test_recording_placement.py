@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-import edged.commands as commands
+import edged.replaycmd as replaycmd
 from edged.cli import build_parser
 from edged.commands import dispatch
 from edged.registry import Registry
@@ -50,7 +50,7 @@ def test_the_recorder_in_its_process_records_what_it_records_in_the_loop(harbour
     assert "messages recorded, 0 dropped, 0 rejected" in out
     assert "output-not-ready" not in err  # the replay began once the recorder was up
 
-    plain = commands.replay_config
+    plain = replaycmd.replay_config
 
     def in_the_loop(cfg, args, registry):
         cfg = plain(cfg, args, registry)
@@ -58,7 +58,7 @@ def test_the_recorder_in_its_process_records_what_it_records_in_the_loop(harbour
         cfg.outputs["record"] = cfg.outputs["record"].model_copy(update={"worker": "loop"})
         return cfg
 
-    monkeypatch.setattr(commands, "replay_config", in_the_loop)
+    monkeypatch.setattr(replaycmd, "replay_config", in_the_loop)
     in_loop = _messages(_replay(harbour, tmp_path, "loop"))
     assert set(in_process) == set(in_loop)
     assert sum(len(v) for v in in_loop.values()) > 15_000

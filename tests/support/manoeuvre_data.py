@@ -18,7 +18,7 @@ from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import Measurement
 from edged.registry import Registry
-from edged.replay import detect
+from edged.logformats import detect
 
 
 def measurements(paths: Iterable[Path], date: str | None = None) -> list[Measurement]:

@@ -20,10 +20,13 @@ from typing import Any, Iterator, TextIO
 
 from mcap.exceptions import McapError
 
+from edged.registry import Registry
+from edged.subcommand import Subcommand
+
 from ..flatten import cell, flatten
 from ..reading import ReadReport, iter_messages
 from ..schemas import MESSAGE_ENCODING
-from ._common import EXIT_OK, EXIT_USAGE, OutputError, command, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, OutputError, existing_file, fail
 
 
 class _NoTopic(LookupError):
@@ -129,8 +132,7 @@ def _discard(out_name: str) -> None:
         p.unlink(missing_ok=True)
 
 
-@command("export")
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     path = existing_file(args.file)
     if path is None:
         return EXIT_USAGE
@@ -168,3 +170,14 @@ def main(args: argparse.Namespace) -> int:
     if out_name:
         print(f"wrote {n} rows of {args.topic} to {out_name}", file=sys.stderr)
     return EXIT_OK
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.mcap")
+    p.add_argument("--topic", required=True, metavar="T")
+    p.add_argument("--format", choices=["csv", "jsonl"], default="csv")
+    p.add_argument("-o", "--output", metavar="OUT", help="default: standard output")
+
+
+#: `edged export` (entry point `edged.commands: export`).
+COMMAND = Subcommand("one topic of a recording as CSV or JSON lines", arguments, main)

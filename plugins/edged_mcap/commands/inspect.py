@@ -9,8 +9,11 @@ from typing import TextIO
 
 from mcap.exceptions import McapError
 
+from edged.registry import Registry
+from edged.subcommand import Subcommand
+
 from ..stats import FileStats, file_stats
-from ._common import EXIT_OK, EXIT_USAGE, command, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
 
 
 def _utc(ns: int | None) -> str:
@@ -58,8 +61,7 @@ def render(s: FileStats, out: TextIO) -> None:
         print(f"{c.topic:<{w}}  {c.schema:<{ws}}  {c.count:>9}  {rate}  {c.span_s:10.3f}  {gap}  {at}{back}", file=out)
 
 
-@command("inspect")
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     path = existing_file(args.file)
     if path is None:
         return EXIT_USAGE
@@ -71,3 +73,11 @@ def main(args: argparse.Namespace) -> int:
         return fail(f"{path}: {exc.strerror or exc}")
     render(s, sys.stdout)
     return EXIT_OK
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.mcap")
+
+
+#: `edged inspect` (entry point `edged.commands: inspect`).
+COMMAND = Subcommand("channels, counts, rates, time span, gaps of a recording", arguments, main)

@@ -24,6 +24,9 @@ from typing import Any, Callable
 import numpy as np
 from mcap.exceptions import McapError
 
+from edged.registry import Registry
+from edged.subcommand import Subcommand
+
 from ..plotdata import (
     ACF_LAGS,
     MARK_ORDER,
@@ -38,7 +41,7 @@ from ..plotdata import (
     white_band,
 )
 from ..scoring import SIGMAS, ScoreError, Truth
-from ._common import EXIT_OK, EXIT_USAGE, command, existing_file, fail
+from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
 
 _KN = 3600.0 / 1852.0  # m/s -> knots, the unit of every speed panel
 
@@ -243,8 +246,7 @@ def _truth_notes(data: PlotData, truth: Truth, path: Path) -> list[str]:
     return notes
 
 
-@command("plot")
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     if not _have_matplotlib():
         return fail("plot needs matplotlib: pip install 'edged[plot]'")
     path = existing_file(args.file)
@@ -272,3 +274,14 @@ def main(args: argparse.Namespace) -> int:
         return fail(f"{path}: nothing to plot (no positions, speeds, manoeuvre or draft data)")
     print(f"wrote {out}: {', '.join(panels)}", file=sys.stderr)
     return EXIT_OK
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.mcap")
+    p.add_argument("-o", "--output", required=True, metavar="report.png")
+    p.add_argument("--truth", metavar="truth.csv",
+                   help="truth table (the simulator's truth.csv): adds the STW error and its autocorrelation")
+
+
+#: `edged plot` (entry point `edged.commands: plot`).
+COMMAND = Subcommand("the pictures an analyst wants, as PNG", arguments, main)

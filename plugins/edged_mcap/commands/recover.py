@@ -6,12 +6,14 @@ import argparse
 
 from mcap.exceptions import McapError
 
+from edged.registry import Registry
+from edged.subcommand import Subcommand
+
 from ..recovery import recover
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, command, existing_file, fail
+from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
 
 
-@command("recover")
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     src = existing_file(args.file)
     if src is None:
         return EXIT_USAGE
@@ -30,3 +32,11 @@ def main(args: argparse.Namespace) -> int:
         print(f"stopped reading at: {r.error}")
     print(f"wrote {res.output}")
     return EXIT_OK if res.messages or r.finished else EXIT_FAILURE
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.mcap")
+
+
+#: `edged recover` (entry point `edged.commands: recover`).
+COMMAND = Subcommand("make an unfinished recording valid again", arguments, main)

@@ -32,9 +32,12 @@ from typing import Any
 import orjson
 from mcap.exceptions import McapError
 
+from edged.registry import Registry
+from edged.subcommand import Subcommand
+
 from ..reading import ReadReport, iter_messages
 from ..scoring import LAGS, SIGMAS, Recording, Row, ScoreError, load_truth, score
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, command, existing_file, fail
+from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
 
 
 def read_recording(path: Path) -> tuple[Recording, ReadReport]:
@@ -118,8 +121,7 @@ def _os_error(path: Path, exc: OSError) -> int:
     return fail(f"{exc.filename or path}: {exc.strerror or exc}", code)
 
 
-@command("score")
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     warmup = args.warmup
     if not (isinstance(warmup, (int, float)) and math.isfinite(warmup) and warmup >= 0):
         return fail(f"--warmup: {warmup!r} is not a non-negative number of seconds", EXIT_USAGE)
@@ -160,3 +162,15 @@ def main(args: argparse.Namespace) -> int:
         doc: list[dict[str, Any]] = [r.to_json() for r in result.rows]
         return _emit(json.dumps(doc, indent=1) + "\n")
     return _emit(render(result.rows))
+
+
+def arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.mcap")
+    p.add_argument("--truth", required=True, metavar="truth.csv", help="truth table (the simulator's truth.csv columns)")
+    p.add_argument("--warmup", type=float, default=60.0, metavar="S", help="seconds after the first estimate left out (default 60)")
+    p.add_argument("--estimate", action="append", metavar="NAME", help="only these estimates (est/NAME); repeatable")
+    p.add_argument("--json", action="store_true", help="the figures as JSON instead of a table")
+
+
+#: `edged score` (entry point `edged.commands: score`).
+COMMAND = Subcommand("estimates of a recording against truth: RMSE, bias, σ coverage", arguments, main)
