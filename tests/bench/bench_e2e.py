@@ -132,13 +132,13 @@ from operator import xor
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from procstat import TICK, rss as _rss, tree  # noqa: E402  (this folder)
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
 EDGED = [sys.executable, "-m", "edged.cli"]
 VESSEL = "benche2e"
 MiB = 1 << 20
-PAGE = os.sysconf("SC_PAGE_SIZE")
-TICK = os.sysconf("SC_CLK_TCK")
 SAMPLE_S = 0.05
 
 TARGET_RTF = 50.0
@@ -252,50 +252,6 @@ def role_vessel(a: argparse.Namespace) -> int:
 
 
 # -- /proc: a process tree's memory and CPU -----------------------------------------------
-def _stat(pid: str) -> tuple[int, int, int, int] | None:
-    """(parent pid, process group, utime+stime ticks, start time) of a live process."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            text = f.read()
-    except OSError:
-        return None
-    fields = text[text.rfind(b")") + 2:].split()  # the name may hold spaces and ')'
-    if fields[0] in (b"Z", b"X"):
-        return None
-    return int(fields[1]), int(fields[2]), int(fields[11]) + int(fields[12]), int(fields[19])
-
-
-def _rss(pid: int) -> int:
-    try:
-        with open(f"/proc/{pid}/statm", "rb") as f:
-            return int(f.read().split()[1]) * PAGE
-    except (OSError, IndexError, ValueError):
-        return 0
-
-
-def tree(leader: int) -> dict[int, tuple[int, int]]:
-    """{pid: (cpu ticks, start time)} of the run's live processes: its session's group
-    (the leader's pid: the run was started in a new session) and every descendant."""
-    info: dict[int, tuple[int, int, int, int]] = {}
-    for name in os.listdir("/proc"):
-        if name.isdigit():
-            st = _stat(name)
-            if st is not None:
-                info[int(name)] = st
-    out: dict[int, tuple[int, int]] = {}
-    for pid, (ppid, pgid, ticks, start) in info.items():
-        member = pgid == leader
-        p, hops = pid, 0
-        while not member and p > 1 and hops < 64:
-            if p == leader:
-                member = True
-                break
-            p, hops = info.get(p, (0,))[0], hops + 1
-        if member:
-            out[pid] = (ticks, start)
-    return out
-
-
 SPAWNED = "spawned process (an estimator worker)"
 
 
@@ -362,7 +318,8 @@ class Sampler:
         with self.lock:
             self.peak_rss = max(self.peak_rss, total)
             self.procs = max(self.procs, len(members))
-            for pid, (ticks, start) in members.items():
+            for pid, st in members.items():
+                ticks, start = st.ticks, st.start
                 self.ticks[(pid, start)] = ticks
                 # Named afresh at each sample but the leader: a child shows its parent's
                 # command until its exec, and the recorder opens its file later.

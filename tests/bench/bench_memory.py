@@ -45,6 +45,8 @@ from functools import reduce
 from operator import xor
 from pathlib import Path
 
+from procstat import status  # noqa: E402  (this folder)
+
 T0 = 1_732_350_000.0
 MARKS = (1, 6, 24)
 
@@ -135,19 +137,6 @@ def write_logs(folder: Path, hours: float, scale: float) -> tuple[Path, Path, di
 
 
 # -- the measurement -------------------------------------------------------------------
-def _status(pid: int) -> dict[str, int]:
-    out: dict[str, int] = {}
-    try:
-        with open(f"/proc/{pid}/status") as f:
-            for line in f:
-                k, _, v = line.partition(":")
-                if k in ("VmRSS", "VmHWM"):
-                    out[k] = int(v.split()[0]) * 1024
-    except OSError:
-        pass
-    return out
-
-
 def _position(pid: int, target: Path) -> int | None:
     """Where the process's open file `target` is read up to (None: not open)."""
     try:
@@ -178,7 +167,7 @@ def run(folder: Path, can_path: Path, nmea_path: Path, offsets: dict[float, int]
     pending = sorted(offsets)
     last_pos = 0
     while proc.poll() is None:
-        st = _status(proc.pid)
+        st = status(proc.pid)
         rss = st.get("VmRSS", 0)
         peak = max(peak, rss, st.get("VmHWM", 0))
         pos = _position(proc.pid, can_path)

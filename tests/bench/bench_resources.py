@@ -117,6 +117,8 @@ from dataclasses import dataclass, field
 from functools import reduce
 from operator import xor
 from pathlib import Path
+
+from procstat import rss as _rss, tree  # noqa: E402  (this folder)
 from typing import BinaryIO, Callable, Sequence
 
 EDGED = [sys.executable, "-m", "edged.cli"]
@@ -128,7 +130,6 @@ AROUND_LINES = 2000
 #: The reader's limit on a chunk's uncompressed size (edged_mcap.reading.MAX_RECORD).
 MCAP_LIMIT = GiB
 MCAP_TOPIC = "/raw/nmea0183/gnss1"
-PAGE = os.sysconf("SC_PAGE_SIZE")
 _WRITE_BLOCK = 16 * MiB
 
 
@@ -186,52 +187,6 @@ class Run:
     nofile: int = 0
     stderr: str = ""
     notes: list[str] = field(default_factory=list)
-
-
-def _stat(pid: str) -> tuple[int, int] | None:
-    """(parent pid, process group) of a live process, None when it is gone or a zombie."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            text = f.read()
-    except OSError:
-        return None
-    fields = text[text.rfind(b")") + 2 :].split()  # the name may hold spaces and ')'
-    if fields[0] in (b"Z", b"X"):
-        return None
-    return int(fields[1]), int(fields[2])
-
-
-def tree(leader: int) -> list[int]:
-    """The run's live processes: its session's group (the leader's pid, as the run was
-    started in a new session) and every descendant of the leader, wherever it went."""
-    parent: dict[int, int] = {}
-    members: set[int] = set()
-    for name in os.listdir("/proc"):
-        if not name.isdigit():
-            continue
-        st = _stat(name)
-        if st is None:
-            continue
-        pid = int(name)
-        parent[pid] = st[0]
-        if st[1] == leader:
-            members.add(pid)
-    for pid in parent:
-        p, hops = pid, 0
-        while p > 1 and hops < 64:
-            if p == leader:
-                members.add(pid)
-                break
-            p, hops = parent.get(p, 0), hops + 1
-    return sorted(members)
-
-
-def _rss(pid: int) -> int:
-    try:
-        with open(f"/proc/{pid}/statm", "rb") as f:
-            return int(f.read().split()[1]) * PAGE
-    except (OSError, IndexError, ValueError):
-        return 0
 
 
 def _fds(pid: int) -> int:

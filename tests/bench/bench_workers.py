@@ -48,6 +48,8 @@ import sys
 import time
 from typing import Any
 
+from procstat import cpu_seconds  # noqa: E402  (this folder)
+
 from edged.clock import LiveClock, ReplayClock
 from edged.config import parse_config
 from edged.plugin import EstimatorConfig, EstimatorPlugin
@@ -163,19 +165,6 @@ def reference_schedule(seconds: float, seed: int = SEED) -> list[tuple[float, st
 
 
 # -- helpers --------------------------------------------------------------------------
-_TCK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
-
-
-def _cpu_of(pid: int | None) -> float | None:
-    """User + system CPU seconds of a live process (Linux /proc), or None."""
-    if pid is None:
-        return None
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / _TCK
-    except (OSError, IndexError, ValueError):
-        return None
 
 
 async def _until(cond, timeout: float = 60.0, poll: float = 0.0005) -> None:
@@ -210,7 +199,7 @@ async def throughput_run(placement: str | None, sched: list, data_seconds: float
     publish = rt.router.publish
     wlimit = min((x.sub.queue.maxsize // 2 for x in rt.workers), default=0)
     gc.collect()
-    child0 = _cpu_of(pid)
+    child0 = cpu_seconds(pid)
     cpu0, wall0 = time.process_time(), time.perf_counter()
     next_tick = t_base + 1.0
     for i, m in enumerate(ms):
@@ -230,7 +219,7 @@ async def throughput_run(placement: str | None, sched: list, data_seconds: float
     # settle()): with more than 1024 records queued, the watermark runs ahead of them.
     await _until(lambda: w is None or (w.health.counters.get("steps", 0) >= n and not w._busy))
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-    child1 = _cpu_of(pid)
+    child1 = cpu_seconds(pid)
     res = {"wall_us": wall / n * 1e6, "cpu_us": cpu / n * 1e6, "rate": n / wall, "rtf": data_seconds / wall}
     if child0 is not None and child1 is not None:
         res["child_us"] = (child1 - child0) / n * 1e6
