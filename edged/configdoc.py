@@ -3,13 +3,13 @@
 Every table of the configuration file is a pydantic model: the core's `[edged]` and
 `[router]`, and each installed plugin's `Config` (found through the registry, as
 `check-config` finds it). The reference lists each key with its type, default, limits
-and the `#:` comment written above it in the model's source, so that the README can
-never drift from what the daemon accepts: a test compares the README's block with what
-this module makes now.
+and the `#:` comment written above it in the model's source, so that the documentation
+can never drift from what the daemon accepts: a test compares the block in
+docs/configuration.md with what this module makes now.
 
-    python -m edged.configdoc            print the reference (markdown)
-    python -m edged.configdoc --write README.md   replace the block between the markers
-    python -m edged.configdoc --check README.md   exit 1 when the block is out of date
+    python -m edged.configdoc                                print the reference (markdown)
+    python -m edged.configdoc --write docs/configuration.md  replace the block between the markers
+    python -m edged.configdoc --check docs/configuration.md  exit 1 when the block is out of date
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ from .registry import Registry
 
 __all__ = ["reference", "BEGIN", "END", "main"]
 
-BEGIN = "<!-- configuration reference: made by `python -m edged.configdoc --write README.md` -->"
+BEGIN = ("<!-- configuration reference: made by "
+         "`python -m edged.configdoc --write docs/configuration.md` -->")
 END = "<!-- end of the configuration reference -->"
 ROLES = (("inputs", "input"), ("estimators", "estimator"), ("outputs", "output"))
 

@@ -1,4 +1,4 @@
-"""STW estimator quality over several seeds: the table in the README.
+"""STW estimator quality over several seeds: the table in docs/estimators.md.
 
     python tests/bench/score_stw.py [--seeds 15] [--hours 3] [--jobs 2] [--out DIR]
 

@@ -1,6 +1,6 @@
-"""The README's "Writing a plugin" example works as written: its code block, run as it
-stands, registered under its entry point's name, configured by its TOML, steps
-depth soundings into estimates (issue 16: a README that cannot rot)."""
+"""The example estimator of docs/writing-a-plugin.md works as written: its code block,
+run as it stands, registered under its entry point's name, configured by its TOML,
+steps depth soundings into estimates (issue 16: documentation that cannot rot)."""
 
 from __future__ import annotations
 
@@ -16,19 +16,20 @@ from edged.records import Estimate, Measurement
 from edged.registry import Registry
 from edged.runtime import Runtime
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "writing-a-plugin.md"
+EXAMPLE = "### Example: the shallowest depth of the last minute"
 
 
 def _blocks(lang: str) -> list[str]:
-    section = README.read_text().split("### Writing a plugin", 1)[1].split("\n### ", 1)[0]
+    section = GUIDE.read_text().split(EXAMPLE, 1)[1].split("\n### ", 1)[0]
     return re.findall(rf"```{lang}\n(.*?)```", section, re.S)
 
 
-async def test_the_readme_estimator_plugin_runs_as_written():
+async def test_the_guide_estimator_plugin_runs_as_written():
     (code,) = _blocks("python")
     (toml,) = _blocks("toml")
     ns: dict = {}
-    exec(compile(code, "README.md:Writing a plugin", "exec"), ns)  # noqa: S102 - our own README
+    exec(compile(code, "docs/writing-a-plugin.md:example", "exec"), ns)  # noqa: S102 - our own guide
     conf = tomllib.loads(toml.split("# edged.toml", 1)[1])
     entry = tomllib.loads(toml.split("# edged.toml", 1)[0])["project"]["entry-points"]["edged.estimators"]
     (type_name,) = entry

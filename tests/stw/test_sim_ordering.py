@@ -2,7 +2,7 @@
 
 `edged sim` → `edged replay` (the default `vector` instance and a `paper` one) →
 `edged score`: the ordering the issue asks for, with margins, on one seed each of the
-following and the rotating cross current (3 hours, as the issue asks; the README gives
+following and the rotating cross current (3 hours, as the issue asks; docs/estimators.md gives
 the table over 15 seeds). What a crew relies on: the estimate is well under the log's error
 and under the naive "SOG − latest forecast", `vector` beats `paper` in a cross current,
 its σ covers the error, and the log's offset is found within its σ.
