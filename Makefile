@@ -22,7 +22,7 @@ demo: $(STAMP)
 # -n auto: one worker per core (pytest-xdist); --dist loadfile keeps a module's
 # tests, and the simulations its fixtures make once, on one worker.
 test: $(STAMP)
-	$(PY) -m pytest -n auto --dist loadfile $(ARGS)
+	$(PY) -m pytest -n auto --dist loadfile -rs $(ARGS)
 
 bench: $(STAMP)
 	@for b in tests/bench/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

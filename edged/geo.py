@@ -1,4 +1,4 @@
-"""A local tangent plane (north, east in metres) that follows the vessel (the estimators' common geometry).
+"""A local tangent plane (north, east in metres): the estimators' common geometry, and the simulator's.
 
 Flat-earth coordinates are exact enough within a few kilometres of their origin; a
 voyage leaves any fixed origin behind (100 km north at 45° changes the east scale by
@@ -10,6 +10,10 @@ the same amount: velocities and covariances are untouched.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 A_WGS84 = 6378137.0
 E2_WGS84 = 6.69437999014e-3
@@ -36,3 +40,18 @@ class LocalPlane:
         lat = self.lat0 + math.degrees(north / self._m)
         lon = self.lon0 + math.degrees(east / self._n) if self._n > 1e-6 else self.lon0
         return lat, (lon + 180.0) % 360.0 - 180.0
+
+    def to_geodetic_array(self, north: np.ndarray, east: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`to_geodetic` of whole tracks (numpy arrays: the simulator's truth and GNSS).
+
+        A longitude is brought back into [−180°, 180°) only when it left it (by 360°
+        once), not by `to_geodetic`'s modulo: in range it stays exactly as computed,
+        so the simulator's files are bit for bit what its own copy of this plane wrote
+        (issue 33)."""
+        import numpy as np  # (here: the estimators' scalar path needs no numpy)
+
+        lat = self.lat0 + np.degrees(north / self._m)
+        if self._n <= 1e-6:  # at a pole every east is the origin's meridian
+            return lat, np.full_like(east, self.lon0, dtype=float)
+        lon = self.lon0 + np.degrees(east / self._n)
+        return lat, np.where(lon >= 180.0, lon - 360.0, np.where(lon < -180.0, lon + 360.0, lon))

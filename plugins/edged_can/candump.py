@@ -16,7 +16,7 @@ can be decoded but not placed in time, and that must be visible.
 from __future__ import annotations
 
 import re
-from typing import Any, BinaryIO, Iterator
+from typing import Any, BinaryIO, Callable, Iterator
 
 from edged.health import ComponentHealth
 from edged.loglines import numbered_lines
@@ -174,6 +174,55 @@ def sniff(head: bytes) -> bool:
     return False
 
 
+class _General:
+    """The lines the fast path of `read` does not take: every layout, every reason."""
+
+    def __init__(self, source: str, health: ComponentHealth, bus_from_line: bool, accept: Callable[[float], bool],
+                 reject: Callable[[str, str], None]) -> None:
+        self.source = source
+        self.health = health
+        self.bus_from_line = bus_from_line
+        self.accept = accept
+        self.reject = reject
+        self.untimed = False  # an untimed line was reported
+
+    def fields(self, line: bytes, lineno: int) -> tuple[float | None, bytes | None, int, bool, bytes] | None:
+        """`_parse` of the line, or None when it was counted instead (a frame without
+        data, a value that cannot be true, not candump)."""
+        try:
+            return _parse(line.strip())
+        except _Skip as skip:
+            self.health.count(skip.counter)
+        except _Reject as bad:
+            self.reject(bad.reason, f"line {lineno}: {bad}")
+        except (ValueError, UnicodeDecodeError) as exc:
+            self.health.count("rejected.bad_line")
+            self.health.error(f"line {lineno}: not a candump frame ({exc})")
+        return None
+
+    def record(self, line: bytes, lineno: int) -> RawRecord | None:
+        if not _meaningful(line):
+            return None
+        fields = self.fields(line, lineno)
+        if fields is None:
+            return None
+        t, iface, can_id, ext, data = fields
+        if t is None:
+            t = 0.0
+            self.health.count("untimed")
+            if not self.untimed:
+                self.untimed = True
+                self.health.error(f"line {lineno}: candump log without timestamps, frames stamped 0.0")
+        elif not self.accept(t):
+            self.reject(BAD_TIME, f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
+            return None
+        bus = iface.decode("ascii") if self.bus_from_line and iface else self.source  # iface: checked ASCII
+        meta: dict[str, Any] = {"id": can_id, "ext": ext}
+        if b"##" in line:  # a CAN FD frame (`ID##<flags><data>`): the decoder allows 64 bytes
+            meta["fd"] = True
+        return RawRecord("can", bus, t, data, meta)
+
+
 def read(
     stream: BinaryIO,
     source: str,
@@ -195,10 +244,9 @@ def read(
     `rejected.bad_length`, interface names that are not printable ASCII
     `rejected.bad_interface`.
     """
-    untimed = False
     accept = TimeWindow(limits, earliest=0.0).accept
     reject = rejecter(health)
-
+    general = _General(source, health, bus_from_line, accept, reject)
     fast = _FAST.fullmatch
     buses: dict[bytes, str] = {}
     for lineno, line in numbered_lines(stream, reject):
@@ -220,31 +268,6 @@ def read(
                     reject(BAD_TIME, f"line {lineno}: time {stamp[:32]!r} cannot be true")
                 continue
             # out of range or an error frame: the general path says which
-        if not _meaningful(line):
-            continue
-        try:
-            t, iface, can_id, ext, data = _parse(line.strip())
-        except _Skip as skip:
-            health.count(skip.counter)
-            continue
-        except _Reject as bad:
-            reject(bad.reason, f"line {lineno}: {bad}")
-            continue
-        except (ValueError, UnicodeDecodeError) as exc:
-            health.count("rejected.bad_line")
-            health.error(f"line {lineno}: not a candump frame ({exc})")
-            continue
-        if t is None:
-            t = 0.0
-            health.count("untimed")
-            if not untimed:
-                untimed = True
-                health.error(f"line {lineno}: candump log without timestamps, frames stamped 0.0")
-        elif not accept(t):
-            reject(BAD_TIME, f"line {lineno}: time {line.strip()[1:].partition(b')')[0][:32]!r} cannot be true")
-            continue
-        bus = iface.decode("ascii") if bus_from_line and iface else source  # iface: checked ASCII
-        meta: dict[str, Any] = {"id": can_id, "ext": ext}
-        if b"##" in line:  # a CAN FD frame (`ID##<flags><data>`): the decoder allows 64 bytes
-            meta["fd"] = True
-        yield RawRecord("can", bus, t, data, meta)
+        r = general.record(line, lineno)
+        if r is not None:
+            yield r

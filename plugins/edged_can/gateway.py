@@ -229,13 +229,11 @@ class GatewayInput(InputPlugin):
         cfg: GatewayConfig = self.config
         if cfg.transport == "tcp":
             return await asyncio.open_connection(cfg.host, cfg.port)
-        # The NMEA 0183 input's serial port: opened without flushing what the
-        # adapter already received, pyserial URLs accepted.
-        from edged_nmea0183.transports.serial import SerialTransport
+        # Opened without flushing what the adapter already received, pyserial URLs
+        # accepted (the NMEA 0183 input's serial port too).
+        from edged.serialport import open_serial
 
-        port = SerialTransport(cfg.device or "", cfg.baudrate or 115200)
-        await port.open()
-        return port.streams()
+        return await open_serial(cfg.device or "", cfg.baudrate or 115200)
 
     async def _stream_session(self, link: Link[Any], conn: Streams) -> None:
         cfg: GatewayConfig = self.config

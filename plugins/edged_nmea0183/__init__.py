@@ -12,3 +12,8 @@ and `plugin` ties them to the edged contract.
 # Nothing is imported here: `edged replay` loads the light log reader `logs.NMEA0183`
 # to sniff any file, and a CAN log must not import the NMEA 0183 decoder (and numpy)
 # for it. Import the modules themselves (`edged_nmea0183.plugin`, `.decoder`).
+
+#: The protocol of this input's raw records (`RawRecord.protocol`): a constant here,
+#: where the light log reader (`logs`) and the reading stack (`logfile`, `plugin`)
+#: both take it without importing each other.
+PROTOCOL = "nmea0183"

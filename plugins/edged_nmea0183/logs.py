@@ -15,9 +15,10 @@ from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord
 
-__all__ = ["PROTOCOL", "Nmea0183Log", "NMEA0183", "sniff"]
+from . import PROTOCOL
 
-PROTOCOL = "nmea0183"
+__all__ = ["Nmea0183Log", "NMEA0183", "sniff"]
+
 #: Lines `sniff` judges at most (a head of 4 KiB holds about 50 sentences).
 _SNIFF_LINES = 400
 #: iKonvert's `!PDGY` lines carry NMEA 2000 without an NMEA 0183 checksum: a log of

@@ -9,11 +9,12 @@ from edged.health import ComponentHealth
 from edged.plugin import InputPlugin, PluginContext
 from edged.records import RawRecord
 
+from . import PROTOCOL
 from .config import Nmea0183Config
 from .decoder import DecoderSettings, Nmea0183Decoder
 from .framer import Framer
 from .link import Sleep, TransportLink
-from .logfile import PROTOCOL, meta_of
+from .logfile import meta_of
 from .transports import make_transport
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geo import KNOT
+from edged.units import KNOT
 
 
 @dataclass(frozen=True)

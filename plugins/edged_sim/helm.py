@@ -12,12 +12,19 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from .geo import KNOT
+from edged.units import KNOT
+
 from .ship import ShipParticulars, steady_thrust_speed
 
 
 def _heading_diff(a: float, b: float) -> float:
-    """a − b onto (−π, π]."""
+    """a − b onto (−π, π].
+
+    A copy of `edged.angles.wrap_pi` kept on purpose: this form (`fmod` after adding
+    8π) rounds differently in the last bit on three values in four, and the autopilot's
+    rudder is computed from it, so `wrap_pi` here changes the files of every autopilot
+    scenario (measured on `yacht-seaway`: truth.csv and can.log differ). The simulated
+    files stay bit for bit what they were (issue 33)."""
     return math.pi - math.fmod(math.pi - (a - b) + 8.0 * math.pi, 2.0 * math.pi)
 
 

@@ -14,7 +14,8 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .geo import KNOT
+from edged.units import KNOT
+
 
 Values = Mapping[str, np.ndarray]
 

@@ -13,10 +13,12 @@ from typing import Iterator
 
 import numpy as np
 
+from edged.geo import LocalPlane
+from edged.units import KNOT
+
 from .dynamics import Integrator
 from .emit import Batch, output
 from .faults import damage_frames, damage_nmea, garbage_line
-from .geo import KNOT, LocalFrame
 from .scenario import Scenario
 from .sensors import freeze, kept, measure
 from .truth import TruthModel, columns
@@ -43,7 +45,7 @@ class Simulation:
         sc = self.scenario
         self.helm = sc.helm.make(sc.ship)
         self.integrator = Integrator(sc.ship, self.helm, sc.dt, sc.heading_deg, sc.helm.speed_kn * KNOT)
-        self.frame = LocalFrame(*sc.origin)
+        self.frame = LocalPlane(*sc.origin)
         env_rng = np.random.default_rng([seed, 0])
         # The wave yaw draws from a stream of its own: scenarios without it keep their bytes.
         yaw = None if sc.wave_yaw is None else sc.wave_yaw.components(np.random.default_rng([seed, 2]))

@@ -18,7 +18,9 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from .geo import LocalFrame, wrap_2pi
+from edged.angles import wrap_2pi
+from edged.geo import LocalPlane
+
 
 #: Fields that are true angles on [0, 2π).
 ANGLES = frozenset({"heading", "cog", "set", "yaw"})
@@ -95,7 +97,7 @@ class SensorSpec:
 
 
 Truth = Mapping[str, np.ndarray]
-Model = Callable[[Truth, SensorSpec, np.random.Generator, LocalFrame], dict[str, np.ndarray]]
+Model = Callable[[Truth, SensorSpec, np.random.Generator, LocalPlane], dict[str, np.ndarray]]
 
 
 def perturb(values: dict[str, np.ndarray], spec: SensorSpec, rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -114,7 +116,7 @@ def perturb(values: dict[str, np.ndarray], spec: SensorSpec, rng: np.random.Gene
     return values
 
 
-def _position(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _position(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     n = np.array(tr["x"], dtype=float)
     e = np.array(tr["y"], dtype=float)
     sigma = spec.noise.get("position", 0.0)
@@ -124,12 +126,12 @@ def _position(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: Loca
     for start, end, dn, de in spec.jumps:
         inside = (tr["t_rel"] >= start) & (tr["t_rel"] < end)
         n, e = n + dn * inside, e + de * inside
-    lat, lon = frame.to_geodetic(n, e)
+    lat, lon = frame.to_geodetic_array(n, e)
     one = np.ones_like(n)
     return {"lat": lat, "lon": lon, "fix_quality": one, "sats": 12 * one, "hdop": 0.9 * one}
 
 
-def _velocity_ground(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _velocity_ground(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     # Noise on the velocity vector, not on speed and course: COG is noisy at low speed.
     vn = tr["sog"] * np.cos(tr["cog"])
     ve = tr["sog"] * np.sin(tr["cog"])
@@ -143,7 +145,7 @@ def _velocity_ground(tr: Truth, spec: SensorSpec, rng: np.random.Generator, fram
 def _fields(*names: str, **renamed: str) -> Model:
     """A model that reports truth fields as they are (then `perturb` adds the errors)."""
 
-    def model(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+    def model(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
         out = {n: np.array(tr[n], dtype=float) for n in names}
         out.update({k: np.array(tr[v], dtype=float) for k, v in renamed.items()})
         return perturb(out, spec, rng)
@@ -151,7 +153,7 @@ def _fields(*names: str, **renamed: str) -> Model:
     return model
 
 
-def _current(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _current(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     # Forecast error as a vector (σ per component), so a weak current's drift stays ≥ 0.
     vn = tr["current_drift"] * np.cos(tr["current_set"])
     ve = tr["current_drift"] * np.sin(tr["current_set"])
@@ -162,23 +164,23 @@ def _current(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: Local
     return {"set": wrap_2pi(np.arctan2(ve, vn)), "drift": np.hypot(vn, ve)}
 
 
-def _time(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _time(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     return {}
 
 
-def _water_speed(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _water_speed(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     out = perturb({"stw_long": np.array(tr["stw_long"]), "stw_trans": np.array(tr["stw_trans"])}, spec, rng)
     out["ground_long"], out["ground_trans"] = np.array(tr["u"]), np.array(tr["v"])
     return out
 
 
-def _depth(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _depth(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     out = perturb({"depth": np.array(tr["depth_below_transducer"])}, spec, rng)
     out["offset"] = np.full_like(out["depth"], spec.bias.get("offset", 0.0))
     return out
 
 
-def _draft(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def _draft(tr: Truth, spec: SensorSpec, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     out = perturb({"draft": np.array(tr[f"draft_{spec.mark}"])}, spec, rng)
     out["status"] = np.zeros_like(out["draft"])
     return out
@@ -201,7 +203,7 @@ MODELS: dict[str, Model] = {
 }
 
 
-def measure(spec: SensorSpec, truth: Truth, rng: np.random.Generator, frame: LocalFrame) -> dict[str, np.ndarray]:
+def measure(spec: SensorSpec, truth: Truth, rng: np.random.Generator, frame: LocalPlane) -> dict[str, np.ndarray]:
     """The values a sensor reports at the instants `truth` was sampled at, with its
     windowed offsets and forced values (which draw nothing from `rng`)."""
     values = MODELS[spec.model](truth, spec, rng, frame)

@@ -11,11 +11,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from edged.angles import wrap_2pi
+from edged.geo import LocalPlane
+
 from .dynamics import Trace
 from .environment import Current, Water, barrass_squat
-from .geo import LocalFrame, wrap_2pi
 from .ship import ShipParticulars
-from .waves import Components, YawComponents, encounter_frequency, response, sea_at
+from .waves import Components, Motion, YawComponents, encounter_frequency, response, sea_at
 
 #: Draft marks in DBC order (ids 0x310..0x315): (name, x as fraction of L, y side).
 MARKS: tuple[tuple[str, float, float], ...] = (
@@ -73,7 +75,7 @@ class TruthModel:
     water: Water
     loading: Loading
     waves: Components
-    frame: LocalFrame
+    frame: LocalPlane
     epoch: float
     #: The hull's wave-frequency yaw (`waves.WaveYaw`), None for none.
     yaw: YawComponents | None = None
@@ -113,13 +115,7 @@ class TruthModel:
         u_dot, v_dot = f[:, 2], f[:, 3]
         vcn, vce, acn, ace = self.current.velocity(t)
         h = trace.dt
-        # Current displacement: Hermite with the current velocity as its derivative.
-        vn0, ve0, _, _ = self.current.velocity(trace.t[i])
-        vn1, ve1, _, _ = self.current.velocity(trace.t[i + 1])
-        t2, t3 = tau * tau, tau**3
-        b = (2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + tau) * h, -2 * t3 + 3 * t2, (t3 - t2) * h)
-        north = n_w + b[0] * ck["dn"][i] + b[1] * vn0 + b[2] * ck["dn"][i + 1] + b[3] * vn1
-        east = e_w + b[0] * ck["de"][i] + b[1] * ve0 + b[2] * ck["de"][i + 1] + b[3] * ve1
+        north, east = self._over_ground(i, tau, n_w, e_w)
 
         c, sn = np.cos(psi), np.sin(psi)
         u_c, v_c = vcn * c + vce * sn, -vcn * sn + vce * c
@@ -130,7 +126,7 @@ class TruthModel:
         sog = np.hypot(vn_g, ve_g)
         cog = wrap_2pi(np.arctan2(ve_g, vn_g))
         course_n, course_e = np.cos(cog), np.sin(cog)
-        lat, lon = self.frame.to_geodetic(north, east)
+        lat, lon = self.frame.to_geodetic_array(north, east)
 
         wave_phase = ck["phase"][i] + ck["we"][i] * (tau[:, None] * h) + 0.5 * (ck["we"][i + 1] - ck["we"][i]) * h * tau[:, None] ** 2
         lo = self.loading
@@ -156,6 +152,29 @@ class TruthModel:
             "rudder": delta, "rudder_order": trace.orders[i, 0], "thrust_speed": trace.orders[i, 1],
             "squat": squat,
         }
+        self._marks(out, t, static, squat, mo, wave_phase, psi)
+        return out
+
+    def _over_ground(self, i: np.ndarray, tau: np.ndarray, n_w: np.ndarray,
+                     e_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """North, east (m): the track through the water plus the current's displacement,
+        a Hermite interpolation with the current's velocity as its derivative."""
+        ck = self._chunk
+        trace: Trace = ck["trace"]
+        h = trace.dt
+        vn0, ve0, _, _ = self.current.velocity(trace.t[i])
+        vn1, ve1, _, _ = self.current.velocity(trace.t[i + 1])
+        t2, t3 = tau * tau, tau**3
+        b = (2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + tau) * h, -2 * t3 + 3 * t2, (t3 - t2) * h)
+        north = n_w + b[0] * ck["dn"][i] + b[1] * vn0 + b[2] * ck["dn"][i + 1] + b[3] * vn1
+        east = e_w + b[0] * ck["de"][i] + b[1] * ve0 + b[2] * ck["de"][i + 1] + b[3] * ve1
+        return north, east
+
+    def _marks(self, out: dict[str, np.ndarray], t: np.ndarray, static: np.ndarray, squat: np.ndarray,
+               mo: Motion, wave_phase: np.ndarray, psi: np.ndarray) -> None:
+        """The draft columns of `out`: each mark's reading and mean, the mean draft,
+        trim, list, deflection, depths and the under-keel clearance."""
+        ship, lo = self.ship, self.loading
         means = []
         for name, fx, side in MARKS:
             x, y = fx * ship.length, side * ship.beam / 2.0
@@ -179,7 +198,6 @@ class TruthModel:
         depth = np.full_like(t, self.water.depth)
         out["depth"], out["depth_below_transducer"] = depth, depth - draft_tr
         out["ukc"] = depth - np.max(means, axis=0)
-        return out
 
 
 def _wave_yawed(yaw: YawComponents, t: np.ndarray, psi: np.ndarray, u_g: np.ndarray, v_g: np.ndarray,

@@ -160,6 +160,17 @@ def _drain(sub: Any, take: Callable[[zenoh.Sample], None]) -> None:
         take(sample)
 
 
+def _draw(out: TextIO, clear: str, table: FleetTable, recorder: Any, clock: Callable[[], float]) -> None:
+    """One refresh of the table, the recorder's status line under it (its file
+    flushed first, so that the line tells what is on disk)."""
+    footer = ""
+    if recorder is not None:
+        recorder.flush()
+        footer = recorder.status_line() + "\n"
+    out.write(clear + table.render(clock()) + footer + ("" if clear else "\n"))
+    out.flush()
+
+
 def run_fleet(
     cfg: Mapping[str, Any],
     out: TextIO,
@@ -203,12 +214,7 @@ def run_fleet(
             for sub in subs:
                 _drain(sub, take)
             _drain(alive, take_alive)
-            footer = ""
-            if recorder is not None:
-                recorder.flush()
-                footer = recorder.status_line() + "\n"
-            out.write(clear + table.render(clock()) + footer + ("" if clear else "\n"))
-            out.flush()
+            _draw(out, clear, table, recorder, clock)
             drawn += 1
             if refreshes is not None and drawn >= refreshes:
                 break

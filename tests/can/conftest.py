@@ -106,7 +106,7 @@ def feed(decoder: CanDecoder) -> Callable[..., list[Measurement]]:
 @pytest.fixture
 def n2k_data() -> Path:
     if not N2K_DATA.is_dir():
-        pytest.skip(f"{N2K_DATA} absent")
+        pytest.skip(f"../shared data not here: {N2K_DATA} not found")
     return N2K_DATA
 
 

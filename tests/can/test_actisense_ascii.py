@@ -28,7 +28,7 @@ def test_a_line_is_a_whole_message_with_source_destination_and_priority():
 
 
 def test_the_nmea2000_packages_writer_is_read_as_the_bus_frame(make_health):
-    nm = pytest.importorskip("nmea2000.decoder")
+    import nmea2000.decoder as nm  # a pinned dependency (pyproject.toml): no skip
     from nmea2000.encoder_formats import N2kAsciiEncoder
 
     msg = nm.NMEA2000Decoder().decode("2024-01-01T12:00:00.000Z,2,127250,7,255,8,ff,10,3b,ff,7f,ce,f5,fc")

@@ -49,7 +49,7 @@ HEALTH_TYPE = {"candump": "can", "actisense_plain": "can", "ydwg_raw": "can", "i
 @pytest.fixture(scope="module")
 def shared_files() -> dict[str, Path]:
     if not SHARED.is_dir():
-        pytest.skip(f"{SHARED} absent")
+        pytest.skip(f"../shared data not here: {SHARED} not found")
     return {f"{p.parent.name}/{p.name}": p for p in sorted(SHARED.glob("*/*")) if p.is_file()}
 
 

@@ -75,5 +75,5 @@ def event_health() -> EventHealth:
 @pytest.fixture
 def data_dir() -> Path:
     if not DATA.is_dir():
-        pytest.skip(f"shared NMEA 0183 logs not found at {DATA}")
+        pytest.skip(f"../shared data not here: {DATA} not found")
     return DATA

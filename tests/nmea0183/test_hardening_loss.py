@@ -230,7 +230,7 @@ def test_serial_reopen_keeps_the_sentences_sent_while_closed(event_health):
 
 
 def test_serial_user_flush_still_flushes(tmp_path):
-    from edged_nmea0183.transports.serial import open_keeping_input
+    from edged.serialport import open_keeping_input
 
     master, slave = os.openpty()
     tty.setraw(master)

@@ -51,7 +51,7 @@ def test_log_replays_and_counters_add_up(path: Path):
 def _need(name: str) -> Path:
     p = LOGS / name
     if not p.is_file():
-        pytest.skip(f"{p} not found")
+        pytest.skip(f"../shared data not here: {p} not found")
     return p
 
 
@@ -120,7 +120,7 @@ def test_shared_ikonvert_log_is_not_ours_but_replays(capsys):
     """Not claimed as NMEA 0183 (no `unknown.PDGY` counts): the CAN input reads it."""
     path = LOGS.parent / "n2k" / "canboat__samples__ikonvert.log"
     if not path.is_file():
-        pytest.skip("shared data absent")
+        pytest.skip(f"../shared data not here: {path} not found")
     from edged.cli import main
 
     with path.open("rb") as f:

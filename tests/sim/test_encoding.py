@@ -13,9 +13,10 @@ import pynmea2
 import pytest
 from nmea2000 import NMEA2000Decoder
 
+from edged.angles import wrap_pi
+from edged.units import KNOT
 from edged_sim import n2k, nmea0183
 from edged_sim.dbc import DRAFT_IDS
-from edged_sim.geo import KNOT, wrap_pi
 from edged_sim.run import Simulation
 from edged_sim.scenarios import SCENARIOS
 from edged_sim.writers import candump_lines, nmea_lines

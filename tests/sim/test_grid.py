@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from edged.angles import wrap_pi
 from edged.cli import build_parser
 from edged_sim.cli import main
-from edged_sim.geo import wrap_pi
 from edged_sim.grid import ACCEL_SATURATED, FAULTS, compose, parse
 from edged_sim.run import Simulation
 from edged_sim.scenarios import SCENARIOS, lookup

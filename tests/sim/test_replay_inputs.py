@@ -14,10 +14,10 @@ from edged.plugin import ReplayOptions
 from edged_sim.cli import main
 from edged.cli import build_parser
 
-nmea_plugin = pytest.importorskip("edged_nmea0183.plugin")
-can_plugin = pytest.importorskip("edged_can.plugin")
-from edged_can.logs import CANDUMP  # noqa: E402
-from edged_nmea0183.logs import NMEA0183  # noqa: E402
+import edged_can.plugin as can_plugin
+import edged_nmea0183.plugin as nmea_plugin
+from edged_can.logs import CANDUMP
+from edged_nmea0183.logs import NMEA0183
 
 #: Injected damage -> the counter the inputs raise for it.
 REASONS = {

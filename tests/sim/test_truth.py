@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 
+from edged.angles import wrap_pi
+from edged.units import KNOT
 from edged_sim.environment import Water, barrass_squat
-from edged_sim.geo import KNOT, wrap_pi
 from edged_sim.run import Simulation
 from edged_sim.scenarios import SCENARIOS
 

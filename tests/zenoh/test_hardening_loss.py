@@ -5,7 +5,6 @@ what it cannot send and says that its link is down; a replay waits for its link
 from __future__ import annotations
 
 import asyncio
-import json
 from typing import Any, Callable
 
 import pytest

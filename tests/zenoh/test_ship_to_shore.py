@@ -10,23 +10,10 @@ import json
 from pathlib import Path
 
 import json5
-import pytest
 import zenoh
 
-import importlib.util
-import sys
-
-# The fleet test's PKI, routers and sessions (tests are imported by path here: the
-# module is loaded from its file rather than copied).
-_spec = importlib.util.spec_from_file_location("fleet_tls_helpers", Path(__file__).with_name("test_fleet_tls.py"))
-assert _spec is not None and _spec.loader is not None
-_fleet = importlib.util.module_from_spec(_spec)
-sys.modules[_spec.name] = _fleet  # (its dataclasses look themselves up there)
-_spec.loader.exec_module(_fleet)
-DASHBOARD, REPO, Pki, Seen = _fleet.DASHBOARD, _fleet.REPO, _fleet.Pki, _fleet.Seen
-free_port, router_config, start_router, tls_session = (_fleet.free_port, _fleet.router_config, _fleet.start_router,
-                                                       _fleet.tls_session)
-pki = _fleet.pki  # the module-scoped fixture
+from zenoh_tls import pki  # noqa: F401 (the fixture)
+from zenoh_tls import DASHBOARD, REPO, Pki, Seen, free_port, router_config, start_router, tls_session, wait_matching
 
 SHIP = REPO / "deploy" / "zenoh" / "router.json5"
 
@@ -73,7 +60,7 @@ def test_a_vessels_data_reaches_the_shore_through_the_ships_router_and_only_its_
         sessions.append(local)
         own = "vessel/vessel-1/est/stw"
         pub = local.declare_publisher(own)
-        _fleet.wait_matching(pub)  # the ship router linked to the shore and knows its subscriber
+        wait_matching(pub)  # the ship router linked to the shore and knows its subscriber
         pub.put("first")
         seen.wait(own, "first")
         pub.undeclare()

@@ -15,6 +15,7 @@ Each module has:
 
 So a recording of raw records replays through the very decoder that read it live, and
 every format gives the same measurements, sources and counters as a CAN bus.
+(`textlog` is no format: the reading loop the text formats' `read` share.)
 """
 
 from __future__ import annotations

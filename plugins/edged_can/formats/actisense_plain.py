@@ -20,11 +20,11 @@ from datetime import datetime, timezone
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
-from edged.loglines import numbered_lines
 from edged.records import RawRecord
-from edged.timecheck import BAD_TIME, TimeWindow, limits_of
+from edged.timecheck import BAD_TIME
 
-from . import Bad, Frame, Message, can_id, rejecter
+from . import Bad, Frame, Message, can_id
+from .textlog import judges, matched_lines
 
 NAME = "actisense_plain"
 _LINE = re.compile(
@@ -68,25 +68,16 @@ def _time(m: re.Match[bytes]) -> float:
 
 
 def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
-    accept = TimeWindow(limits_of(options) if options is not None else limits_of(None)).accept
-    reject = rejecter(health, f"{source}: ")
-
+    j = judges(source, health, options)
     meta = {"format": NAME}
-    for lineno, line in numbered_lines(stream, reject):
-        s = line.strip()
-        if not s or s.startswith(b"#"):
-            continue
-        m = _LINE.fullmatch(s)
-        if m is None:
-            reject("bad_line", f"line {lineno}: not an Actisense/canboat plain line: {s[:60]!r}")
-            continue
+    for lineno, s, m in matched_lines(stream, j.reject, _LINE, "not an Actisense/canboat plain line"):
         try:
             t = _time(m)
         except ValueError:
-            reject(BAD_TIME, f"line {lineno}: no such date or time {s[:30]!r}")
+            j.reject(BAD_TIME, f"line {lineno}: no such date or time {s[:30]!r}")
             continue
-        if not accept(t):
-            reject(BAD_TIME, f"line {lineno}: time {s[:30]!r} cannot be true")
+        if not j.accept(t):
+            j.reject(BAD_TIME, f"line {lineno}: time {s[:30]!r} cannot be true")
             continue
         yield RawRecord("can", source, t, s, meta)
 

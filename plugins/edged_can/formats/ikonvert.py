@@ -41,16 +41,18 @@ from collections import deque
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
-from edged.loglines import numbered_lines
 from edged.records import RawRecord
-from edged.timecheck import BAD_TIME, TimeWindow, limits_of
+from edged.timecheck import BAD_TIME
 
-from . import Bad, Message, n2k_utc_ms, rejecter
-from .ydwg_raw import DAY_MS, HOLD, date_day, day_of
+from . import DAY_MS, Bad, Message, n2k_utc_ms
+from .textlog import Judges, judges, matched_lines, replay_day
+from .ydwg_raw import HOLD, day_of
 
 NAME = "ikonvert"
 _MSG = re.compile(rb"!PDGY,(\d{1,7}),([0-7]),(\d{1,3}),(\d{1,3}),(\d{1,10})\.(\d{1,3}),([^,]*)")
 _GLUED = re.compile(rb"(?=[!$]PDGY)")
+#: What a line must start with: a message or a status sentence (either may be glued).
+_SENTENCE = re.compile(rb"[!$]PDGY,.*", re.DOTALL)
 _SNIFF_MSG = re.compile(rb"!PDGY,\d{1,7},[0-7],\d{1,3},\d{1,3},\d{1,10}\.\d{1,3},[A-Za-z0-9+/]+={0,2}\s*")
 MAX_PGN = 0x3FFFF
 MAX_LENGTH = 223  # the longest fast-packet message
@@ -87,68 +89,124 @@ def _utc_ms(pgn: int, b64: bytes, earliest: float, latest: float) -> int | None:
     return n2k_utc_ms(days, secs, earliest, latest)
 
 
-def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
-    limits = limits_of(options)
-    accept = TimeWindow(limits).accept
-    reject = rejecter(health, f"{source}: ")
+class _Timeline:
+    """The gateway's timer placed in UTC, run by run (see the module's doc): its
+    anchor, the lines held while there is none, and the restarts."""
 
-    no_date = (
-        f"no date for the gateway's timer: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
-        "give it with `edged replay --date YYYY-MM-DD`"
-    )
-    text = getattr(options, "date", None)
-    day: int | None = None  # --date
-    try:
-        day = date_day(text)
-    except ValueError:
-        health.error(f"replay date {text!r} is not YYYY-MM-DD: ignored")
-    meta = {"format": NAME}
-    anchor: tuple[int, int] | None = None  # (UTC ms, timer ms) of this run of the gateway
-    last_ms: int | None = None  # the newest time placed
-    last_timer: int | None = None
-    pending: deque[tuple[int, bytes, int]] = deque()  # (timer ms, sentence, line) waiting for a time
+    def __init__(self, source: str, health: ComponentHealth, options: Any, j: Judges) -> None:
+        self.source = source
+        self.health = health
+        self.judges = j
+        self.no_date = (
+            f"no date for the gateway's timer: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
+            "give it with `edged replay --date YYYY-MM-DD`"
+        )
+        self.day = replay_day(options, health)  # --date
+        self.meta = {"format": NAME}
+        self.anchor: tuple[int, int] | None = None  # (UTC ms, timer ms) of this run of the gateway
+        self.last_ms: int | None = None  # the newest time placed
+        self.last_timer: int | None = None
+        self.pending: deque[tuple[int, bytes, int]] = deque()  # (timer ms, sentence, line) waiting for a time
 
-    def fallback() -> tuple[int, int] | None:
+    def fallback(self) -> tuple[int, int] | None:
         """The anchor when the log states no time: the last time before a restart, else
         00:00 of --date, else none."""
-        if last_ms is not None:
-            return (last_ms, 0)
-        if day is not None:
-            return (day * DAY_MS, 0)
+        if self.last_ms is not None:
+            return (self.last_ms, 0)
+        if self.day is not None:
+            return (self.day * DAY_MS, 0)
         return None
 
-    def place(timer: int, s: bytes, lineno: int) -> RawRecord | None:
-        nonlocal last_ms
-        assert anchor is not None
-        ms = anchor[0] + timer - anchor[1]
+    def place(self, timer: int, s: bytes, lineno: int) -> RawRecord | None:
+        assert self.anchor is not None
+        ms = self.anchor[0] + timer - self.anchor[1]
         t = ms / 1000.0
-        if not accept(t):
-            reject(BAD_TIME, f"line {lineno}: time {t!r} cannot be true")
+        if not self.judges.accept(t):
+            self.judges.reject(BAD_TIME, f"line {lineno}: time {t!r} cannot be true")
             return None
-        if last_ms is None or ms > last_ms:
-            last_ms = ms
-        return RawRecord("can", source, t, s, meta)
+        if self.last_ms is None or ms > self.last_ms:
+            self.last_ms = ms
+        return RawRecord("can", self.source, t, s, self.meta)
 
-    def release() -> Iterator[RawRecord]:
-        nonlocal anchor
-        if anchor is None:
-            anchor = fallback()
-        while pending:
-            item = pending.popleft()
-            if anchor is None:
-                reject("no_date", no_date)
+    def release(self) -> Iterator[RawRecord]:
+        if self.anchor is None:
+            self.anchor = self.fallback()
+        while self.pending:
+            item = self.pending.popleft()
+            if self.anchor is None:
+                self.judges.reject("no_date", self.no_date)
                 continue
-            r = place(*item)
+            r = self.place(*item)
             if r is not None:
                 yield r
 
-    for lineno, line in numbered_lines(stream, reject):
-        s = line.strip()
-        if not s:
-            continue
-        if not (s.startswith(b"!PDGY,") or s.startswith(b"$PDGY,")):
-            reject("bad_line", f"line {lineno}: not an iKonvert sentence at the line's start: {s[:60]!r}")
-            continue
+    def hold(self, timer: int, piece: bytes, lineno: int) -> Iterator[RawRecord]:
+        """A message without a time yet waits; beyond HOLD of them, the oldest go."""
+        self.pending.append((timer, piece, lineno))
+        if len(self.pending) > HOLD:
+            if self.fallback() is not None:
+                yield from self.release()
+            else:
+                self.pending.popleft()
+                self.judges.reject("no_date", self.no_date)
+
+    def restarted(self, timer: int, lineno: int) -> bool:
+        """Whether the timer went back by more than RESTART_TOLERANCE_MS (counted)."""
+        last = self.last_timer
+        self.last_timer = timer
+        if last is None or timer >= last - RESTART_TOLERANCE_MS:
+            return False
+        self.health.count("timer_restarts")
+        self.health.error(
+            f"{self.source}: line {lineno}: the gateway's timer went back from {last / 1000:.3f} s to "
+            f"{timer / 1000:.3f} s (a restart): times from the next 126992/129029"
+        )
+        return True
+
+    def utc(self, m: re.Match[bytes]) -> int | None:
+        """The UTC time a 126992/129029 message states (on --date's day when given)."""
+        pgn = int(m.group(1))
+        if pgn not in (_PGN_SYSTEM_TIME, _PGN_GNSS):
+            return None
+        utc = _utc_ms(pgn, m.group(7), self.judges.limits.earliest, self.judges.limits.latest)
+        if utc is None or self.day is None:
+            return utc
+        # --date wins: the message's time of day, on that date (after a restart: on the
+        # day nearest the last time placed)
+        ref = self.last_ms if self.last_ms is not None else self.day * DAY_MS + DAY_MS // 2
+        return day_of(ref, utc % DAY_MS) * DAY_MS + utc % DAY_MS
+
+    def steady(self, timer: int) -> bool:
+        """True, and the timer taken, when the message can be placed at once (the common
+        case: an anchor, no restart); else `message` is the way."""
+        last = self.last_timer
+        if self.anchor is None or last is None or timer < last - RESTART_TOLERANCE_MS:
+            return False
+        self.last_timer = timer
+        return True
+
+    def message(self, m: re.Match[bytes], timer: int, piece: bytes, lineno: int) -> Iterator[RawRecord]:
+        """The records a message releases: those held before it, and itself."""
+        if self.restarted(timer, lineno):
+            yield from self.release()  # the run before the restart, on what it knew
+            self.anchor = None
+        if self.anchor is None:
+            utc = self.utc(m)
+            if utc is None:
+                yield from self.hold(timer, piece, lineno)
+                return
+            self.anchor = (utc, timer)
+            yield from self.release()
+        r = self.place(timer, piece, lineno)
+        if r is not None:
+            yield r
+
+
+def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
+    j = judges(source, health, options)
+    timeline = _Timeline(source, health, options, j)
+    for lineno, s, _ in matched_lines(stream, j.reject, _SENTENCE, "not an iKonvert sentence at the line's start",
+                                      comments=False):
         pieces = _GLUED.split(s)[1:] if b"PDGY" in s[5:] else (s,)
         for piece in pieces:
             if piece[:1] == b"$":
@@ -156,41 +214,14 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
                 continue
             m = _MSG.fullmatch(piece)
             if m is None:
-                reject("bad_line", f"line {lineno}: not a whole !PDGY sentence: {piece[:60]!r}")
+                j.reject("bad_line", f"line {lineno}: not a whole !PDGY sentence: {piece[:60]!r}")
                 continue
             timer = _timer_ms(m.group(5), m.group(6))
-            if last_timer is not None and timer < last_timer - RESTART_TOLERANCE_MS:
-                health.count("timer_restarts")
-                health.error(
-                    f"{source}: line {lineno}: the gateway's timer went back from {last_timer / 1000:.3f} s to "
-                    f"{timer / 1000:.3f} s (a restart): times from the next 126992/129029"
-                )
-                yield from release()  # the run before the restart, on what it knew
-                anchor = None
-            last_timer = timer
-            if anchor is None:
-                pgn = int(m.group(1))
-                utc = _utc_ms(pgn, m.group(7), limits.earliest, limits.latest) if pgn in (_PGN_SYSTEM_TIME, _PGN_GNSS) else None
-                if utc is None:
-                    pending.append((timer, piece, lineno))
-                    if len(pending) > HOLD:
-                        if fallback() is not None:
-                            yield from release()
-                        else:
-                            pending.popleft()
-                            reject("no_date", no_date)
-                    continue
-                if day is not None:
-                    # --date wins: the message's time of day, on that date (after a
-                    # restart: on the day nearest the last time placed)
-                    ref = last_ms if last_ms is not None else day * DAY_MS + DAY_MS // 2
-                    utc = day_of(ref, utc % DAY_MS) * DAY_MS + utc % DAY_MS
-                anchor = (utc, timer)
-                yield from release()
-            r = place(timer, piece, lineno)
-            if r is not None:
+            if not timeline.steady(timer):
+                yield from timeline.message(m, timer, piece, lineno)
+            elif (r := timeline.place(timer, piece, lineno)) is not None:
                 yield r
-    yield from release()
+    yield from timeline.release()
 
 
 def frame(data: bytes) -> list[Message]:

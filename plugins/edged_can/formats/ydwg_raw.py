@@ -29,15 +29,14 @@ from __future__ import annotations
 
 import re
 from collections import deque
-from datetime import date as _date
 from typing import Any, BinaryIO, Iterator
 
 from edged.health import ComponentHealth
-from edged.loglines import numbered_lines
 from edged.records import RawRecord
-from edged.timecheck import BAD_TIME, TimeWindow, limits_of
+from edged.timecheck import BAD_TIME
 
-from . import DAY_MS, Bad, Frame, n2k_utc_ms, rejecter
+from . import DAY_MS, Bad, Frame, n2k_utc_ms
+from .textlog import Judges, judges, matched_lines, replay_day
 
 NAME = "ydwg_raw"
 _LINE = re.compile(rb"\s*(\d{2}):(\d{2}):(\d{2})\.(\d{3}) ([RT]) ([0-9A-Fa-f]{1,8})((?: [0-9A-Fa-f]{2})*) ?\s*")
@@ -49,7 +48,6 @@ HALF_DAY_MS = DAY_MS // 2
 BACK_TOLERANCE_MS = 1000
 #: Consecutive lines agreeing on an earlier time that make it the log's time.
 CONFIRM = 10
-_EPOCH = _date(1970, 1, 1).toordinal()
 _PGN_SYSTEM_TIME = 126992
 _PGN_GNSS = 129029
 
@@ -58,13 +56,6 @@ def sniff(head: bytes) -> bool:
     lines = [ln for ln in head.splitlines()[:20] if ln.strip()]
     good = [ln for ln in lines[:10] if _SNIFF.fullmatch(ln)]
     return bool(good) and len(good) >= max(1, len(lines[:10]) - 1)
-
-
-def date_day(text: str | None) -> int | None:
-    """`YYYY-MM-DD` -> days since 1970-01-01 (ValueError when malformed)."""
-    if not text:
-        return None
-    return _date.fromisoformat(text).toordinal() - _EPOCH
 
 
 class DayClock:
@@ -144,41 +135,68 @@ def day_of(utc_ms: int, tod_ms: int) -> int:
     return (utc_ms - tod_ms + HALF_DAY_MS) // DAY_MS
 
 
-def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
-    limits = limits_of(options)
-    accept = TimeWindow(limits).accept
-    reject = rejecter(health, f"{source}: ")
+class _Dating:
+    """The date of a log's lines: `--date`, else the first one its frames state, the
+    lines before it held (at most HOLD, the oldest beyond that `rejected.no_date`)."""
 
-    no_date = (
-        f"no date for its time of day: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
-        "give it with `edged replay --date YYYY-MM-DD`"
-    )
-    base: int | None = None  # epoch day of the first line's day
-    text = getattr(options, "date", None)
-    try:
-        base = date_day(text)
-    except ValueError:
-        health.error(f"replay date {text!r} is not YYYY-MM-DD: ignored")
-    finder = DateFinder(limits.earliest, limits.latest) if base is None else None
-    clock = DayClock()
-    pending: deque[tuple[int, bytes, int]] = deque()
-    meta = {"format": NAME}
+    def __init__(self, source: str, health: ComponentHealth, options: Any, j: Judges) -> None:
+        self.source = source
+        self.judges = j
+        self.no_date = (
+            f"no date for its time of day: no PGN 126992/129029 with a date in the log (within {HOLD} lines); "
+            "give it with `edged replay --date YYYY-MM-DD`"
+        )
+        #: The epoch day of the first line's day; None until known.
+        self.base = replay_day(options, health)
+        self.finder = DateFinder(j.limits.earliest, j.limits.latest) if self.base is None else None
+        self.pending: deque[tuple[int, bytes, int]] = deque()
+        self.meta = {"format": NAME}
 
-    def out(rel: int, s: bytes, lineno: int) -> RawRecord | None:
-        t = (base * DAY_MS + rel) / 1000.0  # type: ignore[operator]
-        if not accept(t):
-            reject(BAD_TIME, f"line {lineno}: time {s[:12]!r} cannot be true")
+    def found(self, rel: int, m: re.Match[bytes]) -> bool:
+        """Whether the line's frame states the date (then `base` is known)."""
+        assert self.finder is not None
+        try:
+            utc = self.finder.push(int(m.group(6), 16), bytes.fromhex(m.group(7).decode()))
+        except ValueError:
+            utc = None
+        if utc is None:
+            return False
+        self.base = day_of(utc, rel % DAY_MS) - rel // DAY_MS
+        return True
+
+    def hold(self, rel: int, s: bytes, lineno: int) -> None:
+        self.pending.append((rel, s, lineno))
+        if len(self.pending) > HOLD:
+            self.pending.popleft()
+            self.judges.reject("no_date", self.no_date)
+
+    def release(self) -> Iterator[RawRecord]:
+        """The lines held, now that the date is known."""
+        while self.pending:
+            r = self.out(*self.pending.popleft())
+            if r is not None:
+                yield r
+
+    def out(self, rel: int, s: bytes, lineno: int) -> RawRecord | None:
+        t = (self.base * DAY_MS + rel) / 1000.0  # type: ignore[operator]
+        if not self.judges.accept(t):
+            self.judges.reject(BAD_TIME, f"line {lineno}: time {s[:12]!r} cannot be true")
             return None
-        return RawRecord("can", source, t, s, meta)
+        return RawRecord("can", self.source, t, s, self.meta)
 
-    for lineno, line in numbered_lines(stream, reject):
-        s = line.strip()
-        if not s or s.startswith(b"#"):
-            continue
-        m = _LINE.fullmatch(s)
-        if m is None:
-            reject("bad_line", f"line {lineno}: not a Yacht Devices RAW line: {s[:60]!r}")
-            continue
+    def finish(self) -> None:
+        """The end of the log: the lines still held never got a date."""
+        for _ in range(len(self.pending)):
+            self.judges.reject("no_date", self.no_date)
+        self.pending.clear()
+
+
+def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = None) -> Iterator[RawRecord]:
+    j = judges(source, health, options)
+    reject = j.reject
+    dating = _Dating(source, health, options, j)
+    clock = DayClock()
+    for lineno, s, m in matched_lines(stream, reject, _LINE, "not a Yacht Devices RAW line"):
         hh, mm, ss, ms = (int(x) for x in m.group(1, 2, 3, 4))
         if hh > 23 or mm > 59 or ss > 60:
             reject(BAD_TIME, f"line {lineno}: no such time of day {s[:12]!r}")
@@ -187,29 +205,15 @@ def read(stream: BinaryIO, source: str, health: ComponentHealth, options: Any = 
         if rel is None:
             reject("time_backwards", f"line {lineno}: time {s[:12]!r} goes back more than {BACK_TOLERANCE_MS} ms")
             continue
-        if base is None:
-            assert finder is not None
-            try:
-                utc = finder.push(int(m.group(6), 16), bytes.fromhex(m.group(7).decode()))
-            except ValueError:
-                utc = None
-            if utc is None:
-                pending.append((rel, s, lineno))
-                if len(pending) > HOLD:
-                    pending.popleft()
-                    reject("no_date", no_date)
+        if dating.base is None:
+            if not dating.found(rel, m):
+                dating.hold(rel, s, lineno)
                 continue
-            base = day_of(utc, rel % DAY_MS) - rel // DAY_MS
-            while pending:
-                r = out(*pending.popleft())
-                if r is not None:
-                    yield r
-        r = out(rel, s, lineno)
+            yield from dating.release()
+        r = dating.out(rel, s, lineno)
         if r is not None:
             yield r
-    for _ in range(len(pending)):
-        reject("no_date", no_date)
-    pending.clear()
+    dating.finish()
 
 
 def frame(data: bytes) -> list[Frame]:

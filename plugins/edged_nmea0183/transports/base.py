@@ -66,12 +66,6 @@ class StreamTransport(Transport):
         self._reader: asyncio.StreamReader | None = None
         self._writer: asyncio.StreamWriter | None = None
 
-    def streams(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
-        """The open reader/writer pair (for an input that also writes: a gateway's
-        start-up commands)."""
-        assert self._reader is not None and self._writer is not None, "streams before open"
-        return self._reader, self._writer
-
     async def read(self) -> bytes:
         assert self._reader is not None, "read before open"
         return await self._reader.read(self.read_size)
