@@ -14,7 +14,7 @@ import pytest
 
 sys.path.append(str(Path(__file__).resolve().parent))  # after tests/support: its manoeuvre_real, not the bench script
 
-pytest.importorskip("manoeuvre_real")
+import manoeuvre_real  # noqa: E402,F401  (tests/support, on the pytest path)
 from real_logs import predictions  # noqa: E402
 
 from edged.geo import LocalPlane  # noqa: E402
