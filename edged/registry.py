@@ -21,6 +21,8 @@ GROUPS = {
     "outputs": "edged.outputs",
     #: reader objects (not classes) of log formats for `edged replay`
     "logs": "edged.logs",
+    #: reader objects of recording formats for `edged score`/`plot` (edged.recordings)
+    "recordings": "edged.recordings",
     "commands": "edged.commands",
 }
 

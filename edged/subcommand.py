@@ -20,6 +20,7 @@ import os
 import re
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 if TYPE_CHECKING:  # the registry is only handed through
@@ -101,6 +102,21 @@ def zenoh_options(p: argparse.ArgumentParser) -> None:
     """`--zenoh-config` and `--vessel-id`, the same wherever a command talks zenoh."""
     p.add_argument("--zenoh-config", metavar="FILE.json5", help="zenoh configuration merged over the safe defaults")
     p.add_argument("--vessel-id", metavar="ID", help="vessel id in the key prefix vessel/<id>")
+
+
+def fail(message: str, code: int = EXIT_FAILURE) -> int:
+    """Say what went wrong in one line (naming the file); the exit code to return."""
+    print(f"edged: {message}", file=sys.stderr)
+    return code
+
+
+def existing_file(name: str) -> Path | None:
+    """The path when it is a file; None after saying it is not (bad usage)."""
+    p = Path(name)
+    if not p.is_file():
+        fail(f"{p}: no such file", EXIT_USAGE)
+        return None
+    return p
 
 
 def silence_stdout() -> None:

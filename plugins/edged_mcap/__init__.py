@@ -2,5 +2,7 @@
 
 The recorder output writes raw data, measurements, estimates and health into MCAP
 files with one JSON-schema'd channel per topic; the same package reads those files
-back for replay and implements the `inspect`, `export`, `plot` and `recover` commands.
+back for replay (`edged.logs`), for `edged score` and `edged plot` (`edged.recordings`,
+whose commands are `edged_analysis`'s), and implements the `inspect`, `export` and
+`recover` commands.
 """

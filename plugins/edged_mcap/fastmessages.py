@@ -116,6 +116,21 @@ class PackedChunkIndexes:
         return len(self._data)
 
 
+def _count_stretch(stats: Any, chunk: Any, k: int, lo: int, hi: int) -> None:
+    """The file's statistics and the chunk's after `k` messages logged from `lo` to
+    `hi` (ns) were added to it (once per stretch, not per message)."""
+    if stats.message_count == 0 or lo < stats.message_start_time:
+        stats.message_start_time = lo
+    if hi > stats.message_end_time:
+        stats.message_end_time = hi
+    stats.message_count += k
+    if chunk.num_messages == 0 or lo < chunk.message_start_time:
+        chunk.message_start_time = lo
+    if hi > chunk.message_end_time:
+        chunk.message_end_time = hi
+    chunk.num_messages += k
+
+
 class FastMessages:
     """`add(channel_id, log_ns, data, pub_ns)` equivalent to `writer.add_message`."""
 
@@ -189,17 +204,7 @@ class FastMessages:
                 if offset > limit:
                     break
             buf.write(b"".join(parts))
-            k = i - start
-            if stats.message_count == 0 or lo < stats.message_start_time:
-                stats.message_start_time = lo
-            if hi > stats.message_end_time:
-                stats.message_end_time = hi
-            stats.message_count += k
-            if chunk.num_messages == 0 or lo < chunk.message_start_time:
-                chunk.message_start_time = lo
-            if hi > chunk.message_end_time:
-                chunk.message_end_time = hi
-            chunk.num_messages += k
+            _count_stretch(stats, chunk, i - start, lo, hi)
             if offset > limit:
                 try:
                     self._finalize()

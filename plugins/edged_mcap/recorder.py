@@ -51,12 +51,14 @@ from edged.backoff import Backoff
 from edged.plugin import OutputPlugin, PluginContext
 
 from . import files
-from .channels import dumps, encode, to_ns
-from .config import GIB, McapConfig
+from .batches import DERIVED, WriteFailed, record_batch
+from .channels import to_ns
+from .config import McapConfig
 from .mcapfile import McapFile
+from .placement import Placement
 from .reading import messages_after
 
-__all__ = ["McapRecorder", "Opener", "numbered"]
+__all__ = ["McapRecorder", "Opener"]
 
 #: Opens a recording file: (path, mode) -> binary stream. Injectable for tests.
 Opener = Callable[[Path, str], BinaryIO]
@@ -67,17 +69,8 @@ DISK_LOW = "disk_low"  # free space below the floor: stopped on purpose, resumes
 DISK_FULL = "disk_full"  # a write failed for lack of space
 FAILED = "failed"  # any other write or open error
 
-#: Topics of messages derived from a record recorded on its own channel as well (a
-#: position's LocationFix): every other message is a record of its own.
-DERIVED = "/location/"
-
-#: Log times are uint64 nanoseconds: data time must lie in [1970, 2554).
-MAX_T = (2**64 - 1) / 1e9
-
 #: The longest wait between two attempts to resume after failed ones (seconds).
 RETRY_MAX_SECONDS = 300.0
-#: Room a new file needs beyond one chunk (header, metadata, indexes, summary).
-FILE_HEADROOM = 256 * 1024
 #: Chunks per file before the next file: bounds the Writer's in-memory chunk index
 #: (about 200 bytes a chunk, packed: 8 MB; at the reference load about 3.4 chunks per
 #: second of data, so a file holds about three hours).
@@ -88,26 +81,8 @@ def _default_opener(path: Path, mode: str) -> BinaryIO:
     return open(path, mode)  # noqa: SIM115 - McapFile owns and closes it
 
 
-def numbered(path: Path, n: int) -> Path:
-    """The n-th file of an exact recording: `OUT.mcap`, then `OUT.001.mcap`, ..."""
-    if n == 0:
-        return path
-    return path.with_name(f"{path.stem}.{n:03d}{path.suffix}")
-
-
 def _write_error_state(exc: OSError) -> str:
     return DISK_FULL if exc.errno in (errno.ENOSPC, errno.EDQUOT) else FAILED
-
-
-class _WriteFailed(Exception):
-    """Adding a batch's messages failed after `added` of them; the first record
-    whose messages were lost is `first_lost`."""
-
-    def __init__(self, error: OSError, added: int, first_lost: int) -> None:
-        super().__init__(str(error))
-        self.error = error
-        self.added = added
-        self.first_lost = first_lost
 
 
 class McapRecorder(OutputPlugin):
@@ -127,7 +102,7 @@ class McapRecorder(OutputPlugin):
     ) -> None:
         super().__init__(config, ctx)
         self.config: McapConfig = config
-        self._free_bytes = free_bytes
+        self._place = Placement(config, ctx, free_bytes)
         self._opener = opener
         self._file: McapFile | None = None
         self._started = 0.0  # clock.monotonic() when the current file began
@@ -153,96 +128,26 @@ class McapRecorder(OutputPlugin):
         self._start_file()
 
     def write(self, batch: list[Any]) -> None:
-        """Record `batch`; every record of a replay passes here, so the loop keeps to
-        plain local names (the file's channel table, its message adder) and converts a
-        time to nanoseconds once for the run of records that share it (the sentences
-        of one GNSS epoch, a raw record and its measurements)."""
+        """Record `batch` (`batches.record_batch`); what a failed write lost is counted
+        dropped. Never raises."""
         f = self._file
-        health = self.ctx.health
         if f is None:
-            health.count(f"dropped.{self._stopped}", len(batch))
+            self.ctx.health.count(f"dropped.{self._stopped}", len(batch))
             self._settled += len(batch)
             return
-        pub = to_ns(self.ctx.clock.now())
-        channels = f.channels
-        # The batch's messages go to the file in one call (`add_batch`); `owner[j]` is
-        # the record message j came from (what a failed write lost is counted by it).
-        msgs: list[tuple[int, int, bytes]] = []
-        owner: list[int] = []
-        last_t: Any = None
-        log = 0
-        settled = self._settled  # (the ledger: the rejected are settled at once)
         try:
-            for i, rec in enumerate(batch):
-                try:
-                    outs = encode(rec)
-                except KeyError:
-                    health.count("rejected.unknown_record")
-                    health.error(f"not a record edged knows: {type(rec).__name__}")
-                    self._settled += 1
-                    continue
-                except (AttributeError, TypeError, ValueError) as exc:  # e.g. raw data that is not bytes
-                    health.count("rejected.malformed")
-                    health.error(f"malformed {type(rec).__name__}: {type(exc).__name__}: {exc}")
-                    self._settled += 1
-                    continue
-                t = getattr(rec, "t", None)
-                if t != last_t or t.__class__ is not last_t.__class__:
-                    if not isinstance(t, (int, float)) or not 0.0 <= t < MAX_T:
-                        health.count("rejected.bad_time")
-                        health.error(f"record time outside the MCAP range: {t!r} ({type(rec).__name__})")
-                        self._settled += 1
-                        continue
-                    log = to_ns(t)
-                    last_t = t
-                for topic, schema, payload in outs:
-                    try:
-                        data, cleaned = dumps(payload)
-                    except (TypeError, ValueError) as exc:
-                        health.count("rejected.unencodable")
-                        health.error(f"{topic}: not JSON: {exc}")
-                        if not topic.startswith(DERIVED):
-                            self._settled += 1  # the record's own message is not recorded
-                        continue
-                    if cleaned:
-                        health.count("nonfinite_as_null")
-                    cid = channels.get(topic)
-                    if cid is None:
-                        # A new channel's record goes where the file has got to:
-                        # after the messages before it, as one add at a time did.
-                        self._add(f, msgs, owner, pub)
-                        cid = f.channel(topic, schema)
-                    msgs.append((cid, log, data))
-                    owner.append(i)
-            self._add(f, msgs, owner, pub)
-        except _WriteFailed as failed:
-            rejected = self._settled - settled
+            done = record_batch(f, batch, to_ns(self.ctx.clock.now()), self.ctx.health)
+        except WriteFailed as failed:
+            self._settled += failed.rejected  # (the ledger: the rejected are settled at once)
             self._pending += failed.added
             self._fail(failed.error)
-            health.count(f"dropped.{self._stopped}", len(batch) - failed.first_lost)
-            self._settled += len(batch) - rejected  # dropped, or in the file left behind
+            self.ctx.health.count(f"dropped.{self._stopped}", len(batch) - failed.first_lost)
+            self._settled += len(batch) - failed.rejected  # dropped, or in the file left behind
             return
-        except OSError as exc:  # registering a channel
-            rejected = self._settled - settled
-            self._fail(exc)
-            health.count(f"dropped.{self._stopped}", len(batch) - (owner[0] if owner else i))
-            self._settled += len(batch) - rejected
-            return
-        self._unflushed += len(batch) - (self._settled - settled)
+        self._settled += done.rejected
+        self._pending += done.added
+        self._unflushed += len(batch) - done.rejected
         self._maybe_rotate()
-
-    def _add(self, f: McapFile, msgs: list[tuple[int, int, bytes]], owner: list[int], pub: int) -> None:
-        """Add the messages collected so far to the file, and forget them."""
-        if not msgs:
-            return
-        try:
-            f.add_batch(msgs, pub)
-        except OSError as exc:
-            k = getattr(exc, "added", 0)
-            raise _WriteFailed(exc, k, owner[k] if k < len(owner) else owner[-1] + 1) from exc
-        self._pending += len(msgs)
-        msgs.clear()
-        owner.clear()
 
     def flush(self) -> None:
         now = self.ctx.clock.monotonic()
@@ -259,7 +164,7 @@ class McapRecorder(OutputPlugin):
             return
         self._confirm()
         self._flushed_bytes = flushed
-        if not self._enough_space(f.path.parent):
+        if not self._place.enough_space(f.path.parent):
             self._finish(DISK_LOW)
             return
         self._maybe_rotate()
@@ -329,109 +234,64 @@ class McapRecorder(OutputPlugin):
         }
 
     # -- files ---------------------------------------------------------------------------
-    def _target(self) -> Path:
-        cfg = self.config
-        if cfg.path is not None:
-            return numbered(cfg.path, len(self.files))
-        assert cfg.directory is not None
-        return files.new_file(cfg.directory, self.ctx.clock.now())
-
-    def _measure_free(self, folder: Path) -> int | None:
-        """Free bytes of `folder`, published in health; None when unknown."""
-        try:
-            free = int(self._free_bytes(folder))
-        except (OSError, TypeError, ValueError) as exc:
-            self.ctx.health.error(f"free space of {folder}: {getattr(exc, 'strerror', None) or exc}")
-            return None
-        self.ctx.health.info["disk_free_bytes"] = free
-        return free
-
-    def _enough_space(self, folder: Path, free: int | None = None) -> bool:
-        floor = int(self.config.min_free_gib * GIB)
-        if free is None:
-            free = self._measure_free(folder)
-        if free is None:
-            return True  # unknown is not low: keep recording, the write itself will tell
-        if free < floor:
-            self.ctx.health.error(
-                f"free disk {free / GIB:.2f} GiB below the floor {self.config.min_free_gib} GiB: recording stopped"
-            )
-            return False
-        return True
-
     def _start_file(self) -> None:
-        cfg = self.config
-        health = self.ctx.health
+        """Begin a new file when the folder has room for it; else stop, saying why."""
         now = self.ctx.clock.monotonic()
-        self._next_check = now + cfg.retry_seconds
-        folder = cfg.directory if cfg.directory is not None else cfg.path.parent  # type: ignore[union-attr]
+        self._next_check = now + self.config.retry_seconds
+        place = self._place
+        folder = place.folder
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
             return
-        free = self._measure_free(folder)
-        if not self._enough_space(folder, free):
+        free = place.measure_free(folder)
+        if not place.enough_space(folder, free):
             self._stop(DISK_LOW)
             return
-        need = cfg.chunk_kib * 1024 + FILE_HEADROOM
+        need = place.room_needed()
         if free is not None and free < need:
             # Not even room for a chunk: creating the file would leave an empty one.
             self._stop(DISK_FULL, f"cannot open a recording in {folder}: less than {need} bytes free")
             return
         try:
-            path = self._target()
-            stream = self._opener(path, "wb" if cfg.path is not None else "xb")
+            f = self._new_file(place.target(len(self.files)))
         except OSError as exc:
             self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
             return
+        self._file = f
+        self._flushed_bytes = f.header_size
+        self._started = now
+        self.files.append(f.path)
+        health = self.ctx.health
+        health.info["file"] = str(f.path)
+        health.count("files")
+        health.set_state(RECORDING)
+        self.ctx.log.info("event=recording file=%s", f.path)
+        place.prune(f.path)
+
+    def _new_file(self, path: Path) -> McapFile:
+        """The file at `path`, created and begun (its header written out at once); one
+        that failed to begin is removed (counted `files_removed_empty`) before OSError
+        is passed on."""
+        cfg = self.config
+        stream = self._opener(path, "wb" if cfg.path is not None else "xb")
         f = McapFile(
             stream,
             path,
             compression=cfg.compression,
             chunk_size=cfg.chunk_kib * 1024,
             library=f"edged {edged.__version__}",
-            metadata=self._metadata(),
+            metadata=self._place.metadata(),
         )
         try:
             f.start()
-        except OSError as exc:
+        except OSError:
             f.abandon()
             if f.remove_if_empty(header_only=False):
                 self.ctx.health.count("files_removed_empty")
-            self._failed_attempt(_write_error_state(exc), f"cannot open a recording in {folder}: {exc.strerror or exc}")
-            return
-        self._file = f
-        self._flushed_bytes = f.header_size
-        self._started = now
-        self.files.append(path)
-        health.info["file"] = str(path)
-        health.count("files")
-        health.set_state(RECORDING)
-        self.ctx.log.info("event=recording file=%s", path)
-        self._prune(path)
-
-    def _metadata(self) -> dict[str, str]:
-        return {
-            "vessel_id": self.ctx.vessel_id,
-            "edged_version": edged.__version__,
-            "config": str(self.ctx.options.get("config_text") or ""),
-            "started": files.stamp(self.ctx.clock.now()),
-        }
-
-    def _prune(self, current: Path) -> None:
-        cfg = self.config
-        if cfg.directory is None or (cfg.keep_files is None and cfg.keep_gib is None):
-            return
-        keep_bytes = int(cfg.keep_gib * GIB) if cfg.keep_gib is not None else None
-        try:
-            deleted = files.prune(cfg.directory, cfg.keep_files, keep_bytes, current)
-        except OSError as exc:
-            self.ctx.health.error(f"retention: {exc.strerror or exc}")
-            return
-        if deleted:
-            self.ctx.health.count("files_deleted", len(deleted))
-            self.ctx.log.info("event=retention deleted=%s", ",".join(p.name for p in deleted))
+            raise
+        return f
 
     def _maybe_rotate(self) -> None:
         cfg = self.config

@@ -49,7 +49,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from harness import display, edged, health_of, num, problems_seen, read, replay, table  # noqa: E402
 
 from edged.estimates import ESTIMATE_KINDS  # noqa: E402
-from edged_mcap.scoring import Recording, field_errors, load_truth, position_errors  # noqa: E402
+from edged_analysis.figures import field_errors, position_errors  # noqa: E402
+from edged_analysis.recording import Recording  # noqa: E402
+from edged_analysis.truth import load_truth  # noqa: E402
 from edged_sim.grid import FAULTS  # noqa: E402
 from edged_sim.suites import SUITES  # noqa: E402
 from edged_sim.vessels import VESSELS  # noqa: E402

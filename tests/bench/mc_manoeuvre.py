@@ -74,7 +74,7 @@ from manoeuvre_data import measurements, select  # noqa: E402
 from edged.innovation import chi2_band  # noqa: E402
 from edged_manoeuvre.config import ManoeuvreConfig  # noqa: E402
 from edged_manoeuvre.core import ManoeuvreCore  # noqa: E402
-from edged_mcap.scoring import load_truth  # noqa: E402
+from edged_analysis.truth import load_truth  # noqa: E402
 
 DEG = math.pi / 180.0
 COMBOS = ("ctra+ekf", "ctra+ukf", "ctra+enkf", "cmm+ukf", "cmm+ekf")

@@ -1,76 +1,18 @@
-"""Fixtures of the MCAP recorder tests: a recorder on a manual clock, sample records."""
+"""Fixtures of the MCAP recorder tests: a recorder on a manual clock, sample records
+(`mcap_rig`, shared with the analysis plugin's tests)."""
 
 from __future__ import annotations
 
-import asyncio
-import random
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable
 
 import pytest
-
-from edged.clock import ManualClock
-from edged.health import ComponentHealth
-from edged.plugin import PluginContext
-from edged.records import Estimate, HealthRecord, Measurement, RawRecord
-from edged_mcap.recorder import McapRecorder
-
-T0 = 1_732_350_000.0
-
-
-@dataclass
-class Rig:
-    rec: McapRecorder
-    clock: ManualClock
-    health: ComponentHealth
-
-    def open(self) -> None:
-        asyncio.run(self.rec.open())
-
-    def close(self) -> None:
-        asyncio.run(self.rec.close())
+from mcap_rig import Rig, make_rig as _make_rig, sample_records
 
 
 @pytest.fixture
 def make_rig() -> Callable[..., Rig]:
     """A recorder built from config keys, on a manual clock at T0."""
-
-    def make(*, free_bytes: Callable[[Path], int] | None = None, opener: Any = None, **cfg: Any) -> Rig:
-        clock = ManualClock(T0)
-        health = ComponentHealth("rec", "output", "mcap", clock)
-        ctx = PluginContext(
-            "rec", clock, health, lambda r: None, vessel_id="ship1", options={"config_text": "[edged]\nvessel_id = 'ship1'\n"}
-        )
-        kw: dict[str, Any] = {}
-        if free_bytes is not None:
-            kw["free_bytes"] = free_bytes
-        if opener is not None:
-            kw["opener"] = opener
-        config = McapRecorder.Config.model_validate({"type": "mcap", **cfg})
-        return Rig(McapRecorder(config, ctx, **kw), clock, health)
-
-    return make
-
-
-def sample_records(seconds: int = 3, seed: int = 1) -> list[Any]:
-    """A small reference-like mix: raw NMEA and CAN, measurements, estimates, health."""
-    rnd = random.Random(seed)
-    out: list[Any] = []
-    for s in range(seconds):
-        for i in range(10):
-            t = T0 + s + i * 0.1
-            out.append(RawRecord("nmea0183", "gnss1", t, b"$GPGGA,082000.00,6005.000,N,02330.000,E,1,08,0.9,5.0,M,,M,,*00\r\n", {"tag": f"c:{t}"}))
-            out.append(Measurement("position", "gnss1", t, {"lat": 60.08 + rnd.random() * 1e-4, "lon": 23.5, "fix_quality": 1}))
-            out.append(Measurement("velocity_ground", "gnss1", t, {"sog": 5.0 + rnd.random(), "cog": 1.0}))
-            for mark in range(6):
-                out.append(RawRecord("can", "can0", t + mark * 1e-3, bytes([rnd.randrange(256) for _ in range(4)]), {"id": 0x310 + mark, "ext": False}))
-                out.append(Measurement("draft", "can0.DraftMark", t + mark * 1e-3, {"mark": f"m{mark}", "draft": 8.0 + rnd.random(), "status": 0}))
-            out.append(Estimate("stw", "stw", t, {"stw": 5.1, "stw_std": 0.1, "sog": 5.2, "dvl_stw": None, "mode": "full"}))
-            out.append(Estimate("manoeuvre", "manoeuvre", t, {"lat": 60.08, "lon": 23.5, "u": 5.0, "v": 0.1, "r": 0.01, "std": {"u": 0.1}}))
-            out.append(Estimate("draft", "draft", t, {"marks": {"fore": {"mean": 8.0}, "aft": {"mean": 8.5}}, "mean_draft": 8.25, "trim": 0.5, "list": 0.0}))
-        out.append(HealthRecord(T0 + s, {"t": T0 + s, "outputs": {"rec": {"state": "recording"}}}))
-    return out
+    return _make_rig
 
 
 @pytest.fixture

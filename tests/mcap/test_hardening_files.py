@@ -10,7 +10,6 @@ everything before the damage.
 from __future__ import annotations
 
 import os
-import importlib.util
 import io
 import math
 import random
@@ -26,12 +25,12 @@ from mcap.writer import CompressionType, Writer
 
 from edged.cli import main as cli
 from edged.clock import ManualClock
+from edged.flatten import flatten
 from edged.health import ComponentHealth
 from edged.plugin import ReplayOptions
 from edged.records import RawRecord
+from edged_analysis.plotdata import collect
 from edged_mcap import reading
-from edged_mcap.flatten import flatten
-from edged_mcap.plotdata import collect
 from edged_mcap.reading import MAGIC, NoRecords, ReadReport, iter_messages, iter_records
 from edged_mcap.logs import MCAP
 from edged_mcap.recovery import recover
@@ -231,9 +230,6 @@ def test_a_damaged_record_outside_chunks_is_skipped_and_counted(make_rig, tmp_pa
 
 
 # -- item 1: the commands ----------------------------------------------------------------
-_HAVE_MPL = importlib.util.find_spec("matplotlib") is not None
-
-
 def _run(argv: list[str], capsys) -> tuple[int, str, str]:
     rc = cli(argv)
     out, err = capsys.readouterr()
@@ -270,9 +266,8 @@ def test_commands_on_a_damaged_file_say_so_without_a_traceback(good, kind, tmp_p
     else:
         assert "was unfinished" in out
 
-    if _HAVE_MPL:
-        rc, _, err = _run(["plot", str(path), "-o", str(tmp_path / "p.png")], capsys)
-        assert rc == (0 if has_data else 1), err
+    rc, _, err = _run(["plot", str(path), "-o", str(tmp_path / "p.png")], capsys)
+    assert rc == (0 if has_data else 1), err
 
 
 @pytest.mark.parametrize("kind", ["records_length_2^63", "chunk_length_2^63"])
@@ -338,8 +333,6 @@ def test_commands_refuse_a_file_holding_only_the_magic(cmd, tmp_path, capsys):
     path = tmp_path / "magic.mcap"
     path.write_bytes(MAGIC)
     extra = {"export": ["--topic", "/health"], "plot": ["-o", str(tmp_path / "p.png")]}.get(cmd, [])
-    if cmd == "plot" and not _HAVE_MPL:
-        pytest.skip("matplotlib not installed")
     rc, _, err = _run([cmd, str(path), *extra], capsys)
     assert rc == 1
     assert f"{path}: no records: the file holds only the MCAP magic" in err

@@ -19,7 +19,8 @@ from edged.plugin import PluginContext
 from edged.records import RawRecord
 from edged_mcap.config import GIB
 from edged_mcap.mcapfile import McapFile
-from edged_mcap.recorder import RETRY_MAX_SECONDS, McapRecorder, numbered
+from edged_mcap.placement import numbered
+from edged_mcap.recorder import RETRY_MAX_SECONDS, McapRecorder
 from edged_mcap.recovery import recover
 
 T0 = 1_732_350_000.0

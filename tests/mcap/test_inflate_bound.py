@@ -20,7 +20,7 @@ import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message, Schema
 
-from edged_mcap import reading
+from edged_mcap import chunks
 from edged_mcap.reading import MAGIC, ReadReport, iter_messages
 
 _MIB = 1 << 20
@@ -116,7 +116,7 @@ def test_the_pieces_read_what_a_whole_chunk_reads(monkeypatch):
     n = 5000
     data = _file(_chunk(lambda: _records(n, big_at=77, big=3 * _MIB + 5)))  # a record over 4 pieces
     streamed = _count(data)
-    monkeypatch.setattr(reading, "INFLATE_WHOLE", 1 << 30)
+    monkeypatch.setattr(chunks, "INFLATE_WHOLE", 1 << 30)
     whole = _count(data)
     assert streamed[0] == whole[0] == list(range(n))
     assert streamed[1] == whole[1] and streamed[1][77] == 3 * _MIB + 5 - (3 * _MIB + 5) % 8

@@ -1,8 +1,8 @@
 """`edged export FILE.mcap --topic T [--format csv|jsonl] [-o OUT]`: one topic as a table.
 
-Rows are the messages' JSON payloads flattened with dots, in file order, plus the
-message's `log_time` (ns). CSV columns are the union over all rows (first-seen order),
-found in a first pass so that memory does not grow with the file.
+Rows are the messages' JSON payloads flattened with dots (`edged.flatten`), in file
+order, plus the message's `log_time` (ns). CSV columns are the union over all rows
+(first-seen order), found in a first pass so that memory does not grow with the file.
 
 Only JSON messages can be exported (what edged records); a topic in another encoding
 (a ROS 2 recording's `cdr`, protobuf ...) is refused by name, exit 2.
@@ -20,13 +20,17 @@ from typing import Any, Iterator, TextIO
 
 from mcap.exceptions import McapError
 
+from edged.flatten import flatten
 from edged.registry import Registry
-from edged.subcommand import Subcommand
+from edged.subcommand import EXIT_OK, EXIT_USAGE, existing_file, fail, Subcommand
 
-from ..flatten import cell, flatten
 from ..reading import ReadReport, iter_messages
 from ..schemas import MESSAGE_ENCODING
-from ._common import EXIT_OK, EXIT_USAGE, OutputError, existing_file, fail
+
+
+class OutputError(OSError):
+    """Writing the command's own output failed (not reading its input): the name is
+    the output's (a file, or standard output)."""
 
 
 class _NoTopic(LookupError):
@@ -61,6 +65,15 @@ def rows(path: Path, topic: str, report: ReadReport) -> Iterator[dict[str, Any]]
             row = {"log_time": msg.log_time}
             row.update(flatten(payload) if isinstance(payload, dict) else {"value": payload})
             yield row
+
+
+def cell(v: Any) -> Any:
+    """A value as a CSV cell: empty for null, `repr` precision for floats."""
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)
+    return v
 
 
 def _topics(path: Path) -> list[str]:

@@ -10,11 +10,9 @@ from typing import TextIO
 from mcap.exceptions import McapError
 
 from edged.registry import Registry
-from edged.subcommand import Subcommand
+from edged.subcommand import EXIT_OK, EXIT_USAGE, existing_file, fail, Subcommand
 
 from ..stats import FileStats, file_stats
-from ._common import EXIT_OK, EXIT_USAGE, existing_file, fail
-
 
 def _utc(ns: int | None) -> str:
     if ns is None:

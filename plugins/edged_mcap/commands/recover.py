@@ -7,11 +7,9 @@ import argparse
 from mcap.exceptions import McapError
 
 from edged.registry import Registry
-from edged.subcommand import Subcommand
+from edged.subcommand import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail, Subcommand
 
 from ..recovery import recover
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
-
 
 def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     src = existing_file(args.file)

@@ -8,14 +8,14 @@ white). The raw sensor rows sit indented under their field, judged by the same r
 so that "better than the sensor" is read off one table; so do the derived baselines
 (under `stw`: "naive: sog - forecast along course", SOG − the latest current forecast
 along COG, one row per GNSS and current source pair, none without currents). The
-figures and the truth.csv format are in `edged_mcap.scoring`.
+figures are in `edged_analysis.figures`, the truth.csv format in `edged_analysis.truth`.
 
 Output: a fixed-width table on stdout, or with `--json` one JSON list of rows (null
 where a figure does not apply). Notes (unscorable kinds, missing truth columns, bad
 truth rows, a damaged recording) go to stderr.
 
-Exit codes (DESIGN §4): 2 for bad usage or input files (missing, not MCAP, not a
-truth table, no estimates, no overlapping time, nothing left after the warm-up), 1
+Exit codes (DESIGN §4): 2 for bad usage or input files (missing, not a recording, not
+a truth table, no estimates, no overlapping time, nothing left after the warm-up), 1
 for a runtime failure (an I/O error; also, without a message, a reader that closed the
 pipe early), 0 otherwise; always a one-line message naming the file, never a traceback.
 """
@@ -29,40 +29,22 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import orjson
-from mcap.exceptions import McapError
-
+from edged.recordings import RecordingError, RecordingReport
 from edged.registry import Registry
-from edged.subcommand import Subcommand
+from edged.subcommand import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, Subcommand
 
-from ..reading import ReadReport, iter_messages
-from ..scoring import LAGS, SIGMAS, Recording, Row, ScoreError, load_truth, score
-from ._common import EXIT_FAILURE, EXIT_OK, EXIT_USAGE, existing_file, fail
-
-
-def read_recording(path: Path) -> tuple[Recording, ReadReport]:
-    """The estimates and baseline measurements of a recording, finished or not."""
-    rec = Recording(str(path))
-    report = ReadReport()
-    with open(path, "rb") as f:
-        for ch, _schema, msg in iter_messages(f, report):
-            if not rec.wants(ch.topic):
-                continue
-            try:
-                payload = orjson.loads(msg.data)
-            except orjson.JSONDecodeError:
-                rec.undecodable += 1
-                continue
-            rec.add(ch.topic, payload)
-    return rec, report
+from ..recording import Recording, read_recording
+from ..scoretable import render
+from ..scoring import score
+from ..truth import ScoreError, Truth, load_truth
+from edged.subcommand import existing_file, fail
 
 
-def _damage_notes(path: Path, report: ReadReport, rec: Recording) -> list[str]:
+def _damage_notes(path: Path, report: RecordingReport, rec: Recording) -> list[str]:
     """What a damaged or unfinished file cost: scored anyway, from what was readable."""
     notes = []
     if not report.finished:
-        why = report.unfinished_why
-        notes.append(f"{path}: unfinished recording ({why}); scored what was readable")
+        notes.append(f"{path}: unfinished recording ({report.unfinished_why}); scored what was readable")
     if report.bad_chunks:
         notes.append(f"{path}: {report.bad_chunks} damaged chunk(s) skipped")
     if report.orphans:
@@ -70,43 +52,6 @@ def _damage_notes(path: Path, report: ReadReport, rec: Recording) -> list[str]:
     if rec.undecodable:
         notes.append(f"{path}: {rec.undecodable} message(s) that are not JSON objects with a time skipped")
     return notes
-
-
-def _g(x: float | None) -> str:
-    return "-" if x is None else f"{x:.4g}"
-
-
-def _pct(x: float | None) -> str:
-    return "-" if x is None else f"{x:.1f}"
-
-
-def _ac(x: float | None) -> str:
-    return "-" if x is None else f"{x:+.2f}"
-
-
-#: Column headers; ASCII so that a terminal or pipe of any encoding shows them.
-_HEAD = ("estimate", "field", "unit", "n", "rmse", "bias", "max", *(f"{k}sig%" for k in SIGMAS), *(f"ac{k}" for k in LAGS))
-
-
-def render(rows: list[Row]) -> str:
-    """The table: one line per field, its sensors indented under it."""
-    cells: list[tuple[str, ...]] = []
-    for r in rows:
-        f = r.figures
-        if r.baseline is None:
-            first, second = r.estimate, r.field
-        else:
-            first, second = "", f"  vs {r.baseline} ({r.baseline_field})"
-        cells.append(
-            (first, second, r.unit, str(f.n), _g(f.rmse), _g(f.bias), _g(f.max_abs), *map(_pct, f.within), *map(_ac, f.ac))
-        )
-    widths = [max(len(h), *(len(c[i]) for c in cells)) for i, h in enumerate(_HEAD)]
-    left = 3  # estimate, field, unit: text, left-aligned; figures right-aligned
-
-    def line(c: tuple[str, ...]) -> str:
-        return "  ".join(v.ljust(w) if i < left else v.rjust(w) for i, (v, w) in enumerate(zip(c, widths))).rstrip()
-
-    return "\n".join([line(_HEAD), *map(line, cells)]) + "\n"
 
 
 def _emit(text: str) -> int:
@@ -121,10 +66,8 @@ def _os_error(path: Path, exc: OSError) -> int:
     return fail(f"{exc.filename or path}: {exc.strerror or exc}", code)
 
 
-def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
-    warmup = args.warmup
-    if not (isinstance(warmup, (int, float)) and math.isfinite(warmup) and warmup >= 0):
-        return fail(f"--warmup: {warmup!r} is not a non-negative number of seconds", EXIT_USAGE)
+def _inputs(args: argparse.Namespace, registry: Registry) -> tuple[Truth, Recording, RecordingReport] | int:
+    """The truth table and the recording, or the exit code after saying what is wrong."""
     path = existing_file(args.file)
     if path is None:
         return EXIT_USAGE
@@ -139,15 +82,26 @@ def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
     except OSError as exc:
         return _os_error(truth_path, exc)
     try:
-        rec, report = read_recording(path)
-    except McapError as exc:
+        rec, report = read_recording(path, registry)
+    except RecordingError as exc:
         return fail(f"{path}: {exc}", EXIT_USAGE)
     except OSError as exc:
         return _os_error(path, exc)
+    return truth, rec, report
 
+
+def main(args: argparse.Namespace, registry: Registry | None = None) -> int:
+    warmup = args.warmup
+    if not (isinstance(warmup, (int, float)) and math.isfinite(warmup) and warmup >= 0):
+        return fail(f"--warmup: {warmup!r} is not a non-negative number of seconds", EXIT_USAGE)
+    inputs = _inputs(args, registry or Registry())
+    if isinstance(inputs, int):
+        return inputs
+    truth, rec, report = inputs
+    path = Path(args.file)
     notes = _damage_notes(path, report, rec)
     if truth.bad_rows:
-        notes.append(f"{truth_path}: {truth.bad_rows} bad row(s) skipped (not numbers, no time or wrong number of cells)")
+        notes.append(f"{truth.name}: {truth.bad_rows} bad row(s) skipped (not numbers, no time or wrong number of cells)")
     try:
         result = score(rec, truth, float(warmup), args.estimate)
     except ScoreError as exc:

@@ -19,7 +19,7 @@ import pytest
 from edged.cli import main as cli
 from edged.estimates import ESTIMATE_KINDS
 from edged.records import Estimate, Measurement
-from edged_mcap.scoring import DERIVED, naive_stw
+from edged_analysis.baselines import DERIVED, naive_stw
 
 T0 = 1_732_350_000.0
 NAIVE = "naive: sog - forecast along course"

@@ -1,6 +1,10 @@
-"""Nested JSON to flat rows for tables (`edged export`): `{"a": {"b": 1}}` -> `a.b`.
+"""Nested JSON to one flat row: `{"a": {"b": 1}}` -> `{"a.b": 1}`.
 
-Lists stay one cell (as JSON text): expanding them by index would give every row a
+In the core because two plugins that must not import each other need it: the
+recorder's `edged export` (a topic as a table) and `edged plot` (a field by its dotted
+path). It knows no format and no sensor: a payload is any JSON object.
+
+Lists stay one value (as JSON text): expanding them by index would give every row a
 different set of columns, which is what a pandas-friendly table must not have.
 """
 
@@ -9,7 +13,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-__all__ = ["flatten", "cell"]
+__all__ = ["flatten"]
 
 
 def flatten(obj: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -41,12 +45,3 @@ def _list_cell(v: list[Any]) -> str:
         return json.dumps(v, separators=(",", ":"))
     except RecursionError:  # parsed near the parser's depth limit, too deep to write again
         return "[nested too deep]"
-
-
-def cell(v: Any) -> Any:
-    """A value as a CSV cell: empty for null, `repr` precision for floats."""
-    if v is None:
-        return ""
-    if isinstance(v, float):
-        return repr(v)
-    return v

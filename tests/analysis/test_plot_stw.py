@@ -1,15 +1,16 @@
 """`edged plot` for speed-through-water estimates: the paper's figures (DESIGN §6 est/stw).
 
-The data preparation (`edged_mcap.plotdata`: series per stw instance, error against
-truth, its autocorrelation) is tested without matplotlib; the PNG only when it is
-installed. Recordings are written with the project's recorder (conftest `make_rig`),
-truth tables by hand, errors seeded so that every figure is known in advance.
+The data preparation (`edged_analysis.plotdata` and `stwdata`: series per stw instance,
+error against truth, its autocorrelation) is tested without matplotlib; the PNG with
+it: the `plot` extra is part of the test environment (`make test` installs it), so a
+missing matplotlib fails those tests rather than hiding them. Recordings are written
+with the project's recorder (conftest `make_rig`), truth tables by hand, errors seeded
+so that every figure is known in advance.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import random
 from pathlib import Path
@@ -18,21 +19,15 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import pytest
 
-from edged.cli import build_parser
 from edged.records import Estimate, Measurement
-from edged_mcap.commands import plot
-from edged_mcap.plotdata import (
-    collect,
-    error_autocorrelation,
-    read_truth,
-    stw_error,
-    white_band,
-)
-from edged_mcap.scoring import ScoreError, autocorrelation
+from edged_analysis.commands import plot
+from edged_analysis.figures import autocorrelation
+from edged_analysis.plotdata import collect
+from edged_analysis.stwdata import error_autocorrelation, stw_error, white_band
+from edged_analysis.truth import ScoreError, read_truth
 
 T0 = 1_732_350_000.0
 N = 400  # 1 Hz estimates
-_HAVE_MPL = importlib.util.find_spec("matplotlib") is not None
 
 
 def true_stw(i: float) -> float:
@@ -271,8 +266,7 @@ def test_without_matplotlib_the_truth_option_changes_nothing(voyage, tmp_path, c
     assert rc == 1 and "pip install 'edged[plot]'" in err
 
 
-# -- the picture (matplotlib installed) -------------------------------------------------------
-@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
+# -- the picture (matplotlib: the `plot` extra) ------------------------------------------------
 def test_plot_with_truth_writes_the_stw_error_and_autocorrelation_panels(voyage, tmp_path, capsys):
     out = tmp_path / "stw.png"
     rc, err = run_plot(capsys, voyage, out, write_truth(tmp_path, first=20, last=380))
@@ -285,7 +279,6 @@ def test_plot_with_truth_writes_the_stw_error_and_autocorrelation_panels(voyage,
     assert "speed" in wrote
 
 
-@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
 def test_plot_without_truth_has_the_stw_panel_only(voyage, tmp_path, capsys):
     out = tmp_path / "stw.png"
     rc, err = run_plot(capsys, voyage, out)
@@ -294,7 +287,6 @@ def test_plot_without_truth_has_the_stw_panel_only(voyage, tmp_path, capsys):
     assert "stw stw" in err and "stw stw_paper" in err and "error" not in err and "autocorrelation" not in err
 
 
-@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
 def test_plot_with_truth_that_misses_the_recording_says_so_and_still_draws(voyage, mcap, tmp_path, capsys):
     later = tmp_path / "later.csv"
     later.write_text(f"t,stw\n{T0 + 10_000!r},5.0\n{T0 + 10_001!r},5.0\n")
@@ -307,11 +299,6 @@ def test_plot_with_truth_that_misses_the_recording_says_so_and_still_draws(voyag
     assert "no estimate of kind stw" in err and "--truth" in err
 
 
-_CLI_HAS_TRUTH = not build_parser().parse_known_args(["plot", "f.mcap", "--truth", "t.csv", "-o", "o.png"])[1]
-
-
-@pytest.mark.skipif(not _CLI_HAS_TRUTH, reason="edged/cli.py: `plot --truth` not declared yet")
-@pytest.mark.skipif(not _HAVE_MPL, reason="matplotlib not installed (edged[plot])")
 def test_cli_plot_takes_the_truth_option(voyage, tmp_path, capsys):
     from edged.cli import main as cli
 

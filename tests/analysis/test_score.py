@@ -20,7 +20,9 @@ import pytest
 
 from edged.cli import main as cli
 from edged.records import Estimate, Measurement
-from edged_mcap.scoring import EARTH_RADIUS, ScoreError, field_errors, figures, load_truth
+from edged_analysis.figures import field_errors, figures
+from edged.geo import EARTH_RADIUS
+from edged_analysis.truth import ScoreError, load_truth
 
 T0 = 1_732_350_000.0
 DEG = math.pi / 180.0

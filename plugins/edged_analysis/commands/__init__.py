@@ -1,0 +1,2 @@
+"""The CLI subcommands this plugin implements (entry point group `edged.commands`):
+each module declares `COMMAND`, an `edged.subcommand.Subcommand`."""

@@ -1,0 +1,20 @@
+"""Fixtures of the analysis tests: recordings are written with the project's own
+recorder (`mcap_rig`), as `edged score` and `edged plot` meet them."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import pytest
+from mcap_rig import Rig, make_rig as _make_rig, sample_records
+
+
+@pytest.fixture
+def make_rig() -> Callable[..., Rig]:
+    """A recorder built from config keys, on a manual clock at T0."""
+    return _make_rig
+
+
+@pytest.fixture
+def sample() -> Callable[..., list[Any]]:
+    return sample_records
