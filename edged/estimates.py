@@ -1,11 +1,17 @@
-"""The estimate kinds: the one definition of every estimate's fields (DESIGN §6).
+"""The estimate kinds: what each estimate's fields are (DESIGN §6).
 
-Beside the measurement kinds of `edged.records`, this module says what each estimate
-kind publishes: every field's name, SI unit, JSON type, whether it may be null, and,
-for `edged score`, the truth column it is judged against, the field that carries its
-1-σ and the measurement it replaces (so that "better than the sensor" is one table).
-The MCAP channel schemas, the Zenoh/MCAP payload (`estimate_to_json`) and the docs
-(`kinds_markdown`) are all made from here.
+Beside the measurement kinds of `edged.records`, an estimate kind says what an
+estimator publishes: every field's name, SI unit, JSON type, whether it may be null,
+and, for `edged score`, the truth column it is judged against, the field that carries
+its 1-σ and the measurement it replaces (so that "better than the sensor" is one
+table). The MCAP channel schemas, the Zenoh/MCAP payload (`estimate_to_json`) and the
+docs (`kinds_markdown`) are all made from here.
+
+The core defines no kind: each estimator's package declares its own `EstimateKind`
+(e.g. `edged_stw/estimate.py`) and registers it in the entry point group
+`edged.estimate_kinds` under the kind's name. `ESTIMATE_KINDS` loads them on its first
+use (one scan of the installed packages' metadata, in each process that asks);
+`register_kind` adds one by hand (tests, embedding).
 
 An estimate is published under its estimator instance's name (`[estimators.stw_paper]`
 -> `est/stw_paper`); its *kind* (`stw`) says which fields it has. Every kind has the
@@ -14,24 +20,33 @@ common fields `t`, `kind`, `stale`, `age` and `converging`.
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any, Iterator
+from importlib.metadata import entry_points
+from typing import Any
 
 from .records import Estimate
+
+log = logging.getLogger("edged.estimates")
 
 __all__ = [
     "EstField",
     "EstimateKind",
     "ScoredField",
     "ESTIMATE_KINDS",
+    "KINDS_GROUP",
     "COMMON_FIELDS",
-    "DRAFT_MARKS",
+    "est_field",
+    "nullable_field",
+    "register_kind",
     "estimate_to_json",
     "kinds_markdown",
 ]
 
-#: The six draft marks (DESIGN §5, CAN ids 0x310..0x315 in this order).
-DRAFT_MARKS: tuple[str, ...] = ("fore_port", "fore_stbd", "mid_port", "mid_stbd", "aft_port", "aft_stbd")
+#: The entry point group of the estimate kinds: name = the kind's, object = its
+#: `EstimateKind`.
+KINDS_GROUP = "edged.estimate_kinds"
 
 #: JSON types a field may have (`unit` says the physical unit of a number).
 NUMBER, STRING, BOOL, OBJECT, ARRAY = "number", "string", "boolean", "object", "array"
@@ -49,7 +64,7 @@ class EstField:
     names of baselines `edged score` computes from other measurements and scores
     beside this field (`naive_stw`: SOG − the latest current forecast along the
     course, what a crew without this estimator would do); the computations are
-    `edged_mcap.scoring.DERIVED`.
+    `edged_analysis.baselines.DERIVED`.
     """
 
     name: str
@@ -84,11 +99,15 @@ class ScoredField:
 
 @dataclass(frozen=True, slots=True)
 class EstimateKind:
+    """The fields of one estimate kind, declared by the estimator package that makes it."""
+
     name: str
     doc: str
     fields: tuple[EstField, ...]
-    #: Per-mark fields (the draft kind's `marks` object), keyed by DRAFT_MARKS.
+    #: Per-mark fields: the kind's `marks` object holds one object of these per name
+    #: of `marks` (the draft kind's six draft marks).
     mark_fields: tuple[EstField, ...] = ()
+    marks: tuple[str, ...] = ()
 
     @property
     def field_names(self) -> tuple[str, ...]:
@@ -99,7 +118,7 @@ class EstimateKind:
         for f in self.fields:
             if f.truth is not None:
                 yield ScoredField(f.name, f.truth, f.unit, f.angle, f.std, f.baseline, derived=f.derived)
-        for mark in DRAFT_MARKS if self.mark_fields else ():
+        for mark in self.marks if self.mark_fields else ():
             for f in self.mark_fields:
                 if f.truth is None:
                     continue
@@ -116,11 +135,12 @@ class EstimateKind:
                 )
 
 
-def _f(name: str, unit: str, doc: str, **kw: Any) -> EstField:
+def est_field(name: str, unit: str, doc: str, **kw: Any) -> EstField:
+    """A field (a number unless `type` says otherwise) that is never null."""
     return EstField(name, unit, doc, **kw)
 
 
-def _n(name: str, unit: str, doc: str, **kw: Any) -> EstField:
+def nullable_field(name: str, unit: str, doc: str, **kw: Any) -> EstField:
     """A number that may be null (not known, not configured)."""
     return EstField(name, unit, doc, nullable=True, **kw)
 
@@ -129,108 +149,84 @@ def _n(name: str, unit: str, doc: str, **kw: Any) -> EstField:
 #: of the same name; `stale`/`age` are set by the worker host, not by the core;
 #: `converging` by the core.
 COMMON_FIELDS: tuple[EstField, ...] = (
-    _f("t", "s", "time the estimate is valid for, UTC seconds (UNIX epoch)"),
-    _f("kind", "name", "estimate kind (stw, manoeuvre, draft): which fields follow", type=STRING),
-    _f("stale", "bool", "true when the inputs stopped for longer than the estimator's stale_after", type=BOOL),
-    _f("age", "s", "data time since the newest input the estimator received"),
-    _f("converging", "bool", "true while the filter has not converged (after a start or a restart): "
-       "its σ says how far to trust it", type=BOOL),
+    est_field("t", "s", "time the estimate is valid for, UTC seconds (UNIX epoch)"),
+    est_field("kind", "name", "estimate kind (stw, manoeuvre, draft): which fields follow", type=STRING),
+    est_field("stale", "bool", "true when the inputs stopped for longer than the estimator's stale_after", type=BOOL),
+    est_field("age", "s", "data time since the newest input the estimator received"),
+    est_field("converging", "bool", "true while the filter has not converged (after a start or a restart): "
+              "its σ says how far to trust it", type=BOOL),
 )
 
-ESTIMATE_KINDS: dict[str, EstimateKind] = {
-    k.name: k
-    for k in (
-        EstimateKind(
-            "stw",
-            "Speed through water from GNSS, IMU and current, never from the Doppler log (seed 000).",
-            (
-                _f("stw", "m/s", "speed through water (magnitude)", std="stw_std", truth="stw",
-                   baseline=("water_speed", "stw_long"), derived=("naive_stw",)),
-                _f("stw_std", "m/s", "1-σ of stw"),
-                _f("sog", "m/s", "speed over ground (filtered)", truth="sog", baseline=("velocity_ground", "sog")),
-                _n("current", "m/s", "current speed (drift) used by the filter"),
-                _n("distance", "m", "distance travelled over ground since start"),
-                _n("dvl_stw", "m/s", "the Doppler log's reading, kept for comparison only"),
-                _n("stw_long", "m/s", "along-ship speed through water (null in paper mode)", truth="stw_long",
-                   baseline=("water_speed", "stw_long")),
-                _n("stw_trans", "m/s", "athwartship speed through water, + to starboard (null in paper mode)",
-                   truth="stw_trans"),
-                _f("mode", "name", "paper or vector", type=STRING),
-                _n("current_set", "rad", "direction the current flows toward", angle=True, truth="current_set"),
-                _n("current_along", "m/s", "current along the track, + following", truth="current_along"),
-                _n("dvl_bias", "m/s", "the log's offset b in dvl = (1 + k)·stw + b"),
-                _n("dvl_scale", "1", "the log's scale 1 + k (1 = no error)"),
-                _f("dvl_std", "object", "1-σ of dvl_bias and dvl_scale ({bias, scale}); null without a log",
-                   type=OBJECT, nullable=True),
-            ),
-        ),
-        EstimateKind(
-            "manoeuvre",
-            "Manoeuvring state: kinematic CTRA/CMM with EKF/UKF/EnKF (seeds 002, 001, 004).",
-            (
-                _f("lat", "deg", "latitude (WGS-84)"),
-                _f("lon", "deg", "longitude (WGS-84)"),
-                _f("x", "m", "north in the estimator's own tangent plane (scored through lat, lon)", std="std.x"),
-                _f("y", "m", "east in the estimator's own tangent plane (scored through lat, lon)", std="std.y"),
-                _f("u", "m/s", "surge speed (body x)", std="std.u", truth="u"),
-                _f("v", "m/s", "sway speed (body y, + starboard)", std="std.v", truth="v"),
-                _f("r", "rad/s", "yaw rate, + to starboard", std="std.r", truth="r", baseline=("yaw_rate", "r")),
-                _f("heading", "rad", "true heading", angle=True, std="std.heading", truth="heading",
-                   baseline=("heading", "heading")),
-                _f("a_u", "m/s^2", "surge acceleration", std="std.a_u", truth="a_u"),
-                _f("a_v", "m/s^2", "sway acceleration", std="std.a_v", truth="a_v"),
-                _f("sog", "m/s", "speed over ground", truth="sog", baseline=("velocity_ground", "sog")),
-                _f("cog", "rad", "course over ground", angle=True, truth="cog", baseline=("velocity_ground", "cog")),
-                _f("drift_angle", "rad", "atan2(v, u): drift over ground", angle=True, truth="drift_angle"),
-                _n("drift_angle_water", "rad", "drift through the water (null without a known current)"),
-                _n("nis", "1", "normalised innovation squared of the latest update"),
-                _n("rcond", "1", "reciprocal condition number of that update's innovation covariance (eq. 23)"),
-                _f("q_scale", "object", "process-noise scale of the NIS adaptation per group (yaw, translation)",
-                   type=OBJECT),
-                _f("mode", "name", "tuned or paper", type=STRING),
-                _n("accel_bias", "m/s^2", "accelerometer biases [b_x, b_y] (null without bias states)", type=ARRAY),
-                _f("model", "name", "ctra or cmm", type=STRING),
-                _f("filter", "name", "ekf, ukf or enkf", type=STRING),
-                _f("std", "object", "1-σ per state, keyed by field name", type=OBJECT),
-                _f("predicted", "list", "[{dt, lat, lon, heading, std_major, std_minor, std_angle}] per horizon",
-                   type=ARRAY),
-            ),
-        ),
-        EstimateKind(
-            "draft",
-            "Draft at six marks with trim, list, deflection, squat and under-keel clearance (seed 003).",
-            (
-                _f("marks", "object", "per mark: draft, mean, rate, amplitude, std, ok", type=OBJECT),
-                _n("mean_draft", "m", "mean of the marks' wave-free means", std="mean_draft_std", truth="mean_draft"),
-                _n("mean_draft_std", "m", "1-σ of mean_draft"),
-                _f("filled", "list", "marks out whose mean the derived values take from their partner and the list",
-                   type=ARRAY),
-                _n("trim", "m", "aft − fore, + by the stern", truth="trim"),
-                _n("list", "m", "port − starboard", truth="list"),
-                _n("heel", "rad", "heel angle (when the beam is configured)"),
-                _n("deflection", "m", "mid − mean(fore, aft), + sagging", truth="deflection"),
-                _n("squat", "m", "Barrass squat from the STW estimate", std="squat_std", truth="squat"),
-                _n("squat_std", "m", "1-σ of squat, from the STW estimate's"),
-                _n("ukc", "m", "under-keel clearance (when depth is measured)", truth="ukc"),
-                _n("displacement_change", "t", "since the reference moment (null without TPC)",
-                   std="displacement_change_std"),
-                _n("displacement_change_std", "t", "1-σ of displacement_change"),
-                _n("cargo_rate", "t/h", "rate of displacement change (null without TPC)", std="cargo_rate_std"),
-                _n("cargo_rate_std", "t/h", "1-σ of cargo_rate"),
-            ),
-            mark_fields=(
-                _n("draft", "m", "instantaneous filtered draft", std="std", truth="draft_{mark}",
-                   baseline=("draft", "draft")),
-                _n("mean", "m", "draft with the wave motion removed", truth="draft_{mark}_mean",
-                   baseline=("draft", "draft")),
-                _n("rate", "m/s", "rate of change of the draft"),
-                _n("amplitude", "m", "amplitude of the wave-induced oscillation"),
-                _n("std", "m", "1-σ of draft"),
-                _f("ok", "bool", "false when the mark's sensor is excluded (fault, silence, jump)", type=BOOL),
-            ),
-        ),
-    )
-}
+
+class _Kinds(Mapping[str, EstimateKind]):
+    """The estimate kinds by name: the entry points of `KINDS_GROUP` in their
+    packages' order, loaded on first use, and those registered by hand (which win). A kind that fails to
+    load, or whose entry point's name is not its own, is logged and left out: a broken
+    third-party package must not stop edged."""
+
+    def __init__(self) -> None:
+        self._loaded: dict[str, EstimateKind] | None = None
+        self._registered: dict[str, EstimateKind] = {}
+        self._all: dict[str, EstimateKind] | None = None  # the two merged
+
+    def _load(self) -> dict[str, EstimateKind]:
+        loaded: dict[str, EstimateKind] = {}
+        for ep in entry_points(group=KINDS_GROUP):
+            if ep.name in loaded:
+                continue
+            try:
+                kind = ep.load()
+            except Exception as exc:
+                log.warning("estimate kind %s failed to load: %s", ep.name, exc)
+                continue
+            if not isinstance(kind, EstimateKind) or kind.name != ep.name:
+                log.warning("estimate kind %s: %s is not an EstimateKind named so", ep.name, ep.value)
+                continue
+            loaded[ep.name] = kind
+        return loaded
+
+    def _kinds(self) -> dict[str, EstimateKind]:
+        merged = self._all
+        if merged is None:
+            if self._loaded is None:
+                self._loaded = self._load()
+            merged = self._all = {**self._loaded, **self._registered}
+        return merged
+
+    def __getitem__(self, name: str) -> EstimateKind:
+        return self._kinds()[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._kinds()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._kinds())
+
+    def __len__(self) -> int:
+        return len(self._kinds())
+
+    def register(self, kind: EstimateKind) -> None:
+        self._registered[kind.name] = kind
+        self._all = None
+
+
+#: Every estimate kind installed, by name (lazily filled: see `_Kinds`).
+ESTIMATE_KINDS: Mapping[str, EstimateKind] = _Kinds()
+
+
+def register_kind(kind: EstimateKind) -> None:
+    """Add (or replace) a kind by hand, beside the installed ones (tests, embedding)."""
+    ESTIMATE_KINDS.register(kind)  # type: ignore[attr-defined]
+
+
+def __getattr__(name: str) -> Any:
+    """`DRAFT_MARKS`, the draft kind's marks (none when no draft estimator is
+    installed), for the modules that still import it from here (it lives with the
+    draft estimator now: `edged_draft.estimate`; a kind's own are `EstimateKind.marks`)."""
+    if name == "DRAFT_MARKS":
+        draft = ESTIMATE_KINDS.get("draft")
+        return draft.marks if draft is not None else ()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def estimate_to_json(e: Estimate) -> dict[str, Any]:

@@ -7,8 +7,9 @@ runtime supervises, and health it reports. Three roles:
 - `InputPlugin`: owns a transport and a decoder; emits raw records and measurements.
   Its class also says how to decode raw records again (`make_decoder`), so that
   replay uses the very decoders the live input uses.
-- `EstimatorPlugin`: makes a synchronous `EstimatorCore` (`step(record) -> [Estimate]`);
-  the runtime hosts it in a worker with its own queue.
+- `EstimatorPlugin`: names a synchronous core class (`edged.estimator.Estimator`:
+  `step(record) -> [Estimate]`, `tick`, `health`) and makes one; the runtime hosts it
+  in a worker with its own queue.
 - `OutputPlugin`: receives batches of records (raw, measurements, estimates, health).
 
 Beside the three roles, a `LogReader` reads the files of one log format for
@@ -31,8 +32,9 @@ from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Literal, NamedTu
 from pydantic import BaseModel, ConfigDict, Field
 
 from .clock import Clock
+from .estimator import Estimator
 from .health import ComponentHealth
-from .records import Estimate, Measurement, RawRecord
+from .records import Measurement, RawRecord
 
 __all__ = [
     "Claim",
@@ -128,6 +130,11 @@ class OutputConfig(PluginConfig):
     #: (`edged.outputproc`: its work then uses another core, and a slow disk or peer
     #: stalls only it). The plugin and its configuration must then be picklable.
     worker: Literal["loop", "process"] = "loop"
+    #: Output in a process: seconds a call (a batch written, a flush, opening, closing)
+    #: may take before the process is declared hung, killed and restarted (what it
+    #: had is counted `dropped.process_died`). Generous: a slow disk's fsync is not a
+    #: hang; `ready` is bound by its own timeout instead.
+    watchdog: float = Field(60.0, gt=0.0, le=3600.0)
 
 
 @dataclass
@@ -248,7 +255,7 @@ class LogReader(Protocol):
     priority: int
 
     def sniff(self, head: bytes) -> bool:
-        """True when a file starting with `head` (up to `edged.replay.HEAD_BYTES`) is
+        """True when a file starting with `head` (up to `edged.logformats.HEAD_BYTES`) is
         of this format. Never raises on any bytes (one that does is logged and
         skipped: it does not decide for the other readers)."""
         ...
@@ -268,42 +275,43 @@ class LogReader(Protocol):
         ...
 
 
-class EstimatorCore(Protocol):
-    """A synchronous estimator: the same stamped inputs give the same estimates.
-
-    The worker host (`edged.workers`) feeds it its inputs in data-time order, one
-    record at a time, in the event loop or in a process of its own; it never reads a
-    clock. Optional methods the host calls when a core has them:
-
-    - `tick(t) -> list[Estimate]`: at each tick of the data-time grid k/publish_rate
-      (a core that computes its output only when it is published, e.g. a 600 Hz
-      draft filter published at 1 Hz);
-    - `health() -> dict`: filter health for the component's `info` (innovation
-      statistics per measurement kind from `edged.innovation.InnovationMonitor`,
-      resets and their reason), read at every health snapshot.
-
-    The estimates it returns need only `t` and `values`: the host sets their name
-    (the instance's table name), kind and source, and adds `stale` and `age`.
-    """
-
-    #: Route keys it consumes: measurement kinds and/or `est/<name>` of the estimator
-    #: instances its configuration names.
-    inputs: frozenset[str]
-
-    def step(self, rec: Measurement | Estimate) -> list[Estimate]: ...
+#: The core an estimator plugin makes: a subclass of `edged.estimator.Estimator`
+#: (its handlers per measurement kind, `tick`, its health).
+EstimatorCore = Estimator
 
 
 class EstimatorPlugin(Plugin):
-    Config: ClassVar[type[PluginConfig]] = EstimatorConfig
-    #: The estimate kind (`edged.estimates.ESTIMATE_KINDS`) its estimates are, which
-    #: says their fields; None for a kind this version does not define.
-    kind: ClassVar[str | None] = None
+    """An estimator: its configuration, the core class it runs and the estimate kind
+    it publishes. The worker host (`edged.workers`) hosts its core."""
 
-    def make_core(self) -> EstimatorCore:
+    Config: ClassVar[type[PluginConfig]] = EstimatorConfig
+    #: The estimate kind its estimates are (`edged.estimates.ESTIMATE_KINDS`, filled
+    #: from the entry point group `edged.estimate_kinds`), which says their fields;
+    #: None for a kind no installed package defines.
+    kind: ClassVar[str | None] = None
+    #: The core's class: what it consumes and whether it ticks are read from it and
+    #: the configuration, without making a core.
+    Core: ClassVar[type[Estimator] | None] = None
+
+    def _core_class(self) -> type[Estimator]:
+        if self.Core is None:
+            raise TypeError(f"{type(self).__name__} names no Core (an edged.estimator.Estimator subclass)")
+        return self.Core
+
+    def inputs(self) -> frozenset[str]:
+        """The route keys its core consumes under this configuration (measurement
+        kinds, `est/<name>` of the instances it reads)."""
+        return self._core_class().consumes(self.config)
+
+    def ticks(self) -> bool:
+        """Whether its core computes estimates at the ticks (`Estimator.tick`)."""
+        return self._core_class().ticks
+
+    def make_core(self) -> Estimator:
         """A fresh core; called at start and after every failure (in the worker's
         process when it runs in one: the core need not be picklable, the plugin's
         class and configuration must be)."""
-        raise NotImplementedError
+        return self._core_class()(self.config)
 
 
 class OutputPlugin(Plugin):

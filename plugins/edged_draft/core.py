@@ -2,27 +2,29 @@
 values at each tick (DESIGN §6 `est/draft`).
 
 Synchronous and fed in data-time order (the worker host ticks it at `publish_rate`):
-the same log gives the same estimates at any replay speed.
+the same log gives the same estimates at any replay speed. Its health's innovation
+statistics are per mark (each mark's sensor is its own stream: `fore_port`, …), one
+degree of freedom each; a mark restarted after a jump is a reset.
 """
 
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
 from typing import Any
 
-import numpy as np
-
+from edged.estimator import ESTIMATES, Estimator, handles
 from edged.records import Estimate, Measurement
 
 from . import derived
+from .cargo import Cargo
 from .config import DraftConfig
 from .marks import MarkState
+from .noise import MarkNoise
 from .paper import PaperMark
-from .waves import WaveBank, WaveMark, step_marks
+from .speed import SpeedFit
+from .bank import WaveBank
+from .waves import WaveMark, step_marks
 
-#: Below this the learned sensor σ is not believed (m): a stuck sensor is not precise.
-SIGMA_FLOOR = 0.001
 #: A mark's first reading and its start: ten seconds, then it is in (its first means
 #: carry the sea: let in after 2–6 s, marks were then put out again as disagreeing).
 #: Until then the derived values come from the starting marks, `converging`
@@ -39,93 +41,54 @@ RIGID_CHI2 = 3.0
 DISAGREE_HOLD = 2.0
 
 
-class MarkNoise:
-    """One mark's reading variance, learned from its residuals (R·S⁻¹·y)² + R − R²/S,
-    over about `samples` readings (a minute at 100 Hz)."""
+class DraftCore(Estimator):
+    @classmethod
+    def upstream(cls, cfg: DraftConfig) -> tuple[str, ...]:
+        return (cfg.stw_from,) if cfg.stw_from else ()
 
-    def __init__(self, sigma: float, samples: float = 6000.0) -> None:
-        self.var = sigma * sigma
-        self.alpha = 1.0 / samples
-        self.n = 0
-
-    def add(self, y: float, S: float) -> None:
-        R = self.var
-        e = R / S * y
-        sample = e * e + R - R * R / S
-        a = max(self.alpha, 1.0 / (self.n + 2))
-        self.var = max((1.0 - a) * self.var + a * sample, SIGMA_FLOOR**2)
-        self.n += 1
-
-
-def _slope_std(ts: np.ndarray, res: np.ndarray) -> float:
-    """Standard error of a least-squares slope whose residuals are correlated (a
-    filter's output once a second is): the samples count as n(1 − ρ)/(1 + ρ), ρ the
-    residuals' lag-1 autocorrelation."""
-    n = len(ts)
-    var = float(np.dot(res, res)) / max(n - 2, 1)
-    rho = float(np.dot(res[1:], res[:-1]) / np.dot(res, res)) if np.dot(res, res) > 0 else 0.0
-    rho = min(max(rho, 0.0), 0.99)
-    n_eff = max(n * (1.0 - rho) / (1.0 + rho), 3.0)
-    sxx = float(np.sum((ts - ts.mean()) ** 2))  # > 0: the ticks' times differ
-    return math.sqrt(var / sxx * n / n_eff)
-
-
-class DraftCore:
     def __init__(self, cfg: DraftConfig) -> None:
-        self.cfg = cfg
-        self.inputs = frozenset({"draft", "depth"} | ({f"est/{cfg.stw_from}"} if cfg.stw_from else set()))
+        super().__init__(cfg)
+        self.cfg: DraftConfig = cfg
         self.bank = WaveBank(cfg.wave_period_min, cfg.wave_period_max, cfg.resonators, cfg.damping, cfg.q_jerk,
                              cfg.q_squat if cfg.squat_from_speed else 0.0)
         self.filters: dict[str, WaveMark | PaperMark] = {}
         self.noise: dict[str, MarkNoise] = {}
         self.state = {m: MarkState(m) for m in derived.MARKS}
-        self.rejected: Counter[str] = Counter()
-        self.seen = 0
+        self.speed = SpeedFit(cfg.speed_window, cfg.stw_max_age)
+        self.cargo = Cargo(cfg)
         self._retuned: float | None = None
         self._depth: tuple[float, float] | None = None  # t, depth below transducer
         self._water: float | None = None  # water depth (m), the sounder's mean over `depth_window`
-        self._stw: tuple[float, float] | None = None  # t, m/s
-        self._stw_std: float | None = None
-        self._stw_recent: deque[tuple[float, float]] = deque()  # (t, m/s) over `speed_window`
-        self._stw_fit = (0.0, 0.0, 0.0)  # t, fitted STW there (m/s), its rate (m/s²)
-        self._reference: tuple[float, float] | None = None  # t, mean draft at the reference moment
-        self._reference_std = 0.0
-        self._first_mean_t: float | None = None
         self._t_first: float | None = None  # the first reading's time (the estimator's start)
         self._filled: list[str] = []
         self._rigid_chi2 = 1.0  # `_rigid_explains`: the fit's running χ² per dof
-        self._history: deque[tuple[float, float]] = deque()  # (t, mean draft) for the cargo rate
         self._pending: dict[str, tuple[float, float]] = {}  # mark -> (t, draft) not yet filtered
 
     # ------------------------------------------------------------------ inputs
-    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        if isinstance(rec, Estimate) or rec.kind != "draft":
-            self._flush()  # the speed or a sounding reads the marks as they are now
-        if isinstance(rec, Estimate):
-            if self.cfg.stw_from is not None and rec.name == self.cfg.stw_from:
-                v = rec.values.get("stw")
-                if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
-                    self._stw = (rec.t, float(v))
-                    sd = rec.values.get("stw_std")
-                    self._stw_std = float(sd) if isinstance(sd, (int, float)) and math.isfinite(sd) else None
-                    self._fit_speed(rec.t, float(v))
-                elif v is not None:  # null: the STW estimator has none yet
-                    self.rejected["stw.bad_value"] += 1
-            return []
-        if rec.kind == "depth":
-            d = rec.values.get("depth")
-            if isinstance(d, (int, float)) and math.isfinite(d) and d >= 0.0:
-                prev = self._depth
-                self._depth = (rec.t, float(d))
-                self._sounded(rec.t, float(d), None if prev is None else rec.t - prev[0])
-            else:
-                self.rejected["depth.bad_value"] += 1
-            return []
-        if rec.kind == "draft":
-            self._on_draft(rec.t, rec.values)
-        return []
+    @handles(ESTIMATES)
+    def _on_stw(self, rec: Estimate) -> None:
+        self._flush()  # the speed reads the marks as they are now
+        v = rec.values.get("stw")
+        if isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v < 30.0:
+            sd = rec.values.get("stw_std")
+            self.speed.add(rec.t, float(v), float(sd) if isinstance(sd, (int, float)) and math.isfinite(sd) else None)
+        elif v is not None:  # null: the STW estimator has none yet
+            self.rejected["stw.bad_value"] += 1
 
-    def _on_draft(self, t: float, v: dict[str, Any]) -> None:
+    @handles("depth")
+    def _on_depth(self, rec: Measurement) -> None:
+        self._flush()  # a sounding reads the marks as they are now
+        d = rec.values.get("depth")
+        if isinstance(d, (int, float)) and math.isfinite(d) and d >= 0.0:
+            prev = self._depth
+            self._depth = (rec.t, float(d))
+            self._sounded(rec.t, float(d), None if prev is None else rec.t - prev[0])
+        else:
+            self.rejected["depth.bad_value"] += 1
+
+    @handles("draft")
+    def _on_draft(self, rec: Measurement) -> None:
+        t, v = rec.t, rec.values
         cfg = self.cfg
         name = v.get("mark")
         st = self.state.get(name) if isinstance(name, str) else None
@@ -134,7 +97,6 @@ class DraftCore:
             return
         if name in self._pending:
             self._flush()
-        self.seen += 1
         counted = v.get("lost")
         lost = st.heard(t, counted if isinstance(counted, int) and not isinstance(counted, bool) else None)
         if lost:
@@ -170,7 +132,7 @@ class DraftCore:
         if isinstance(f, PaperMark):
             self._predict(f, t)
             y, S, nis, applied = f.update(z, self.noise[name].var, cfg.gate)
-            self._judged(name, t, z, y, S, applied)
+            self._judged(name, t, z, y, S, nis, applied)
             return
         self._pending[name] = (t, z)  # filtered with the other marks' readings (`_flush`)
 
@@ -198,21 +160,23 @@ class DraftCore:
         t0 = ts[0]
         speed = self._speed(t0)  # (one instant's readings, mostly: one speed for all)
         speeds = [speed if t == t0 else self._speed(t) for t in ts]
-        ys, Ss, _, applied = step_marks(marks, ts, zs, [self.noise[n].var for n in names], speeds, self.cfg.gate)
+        ys, Ss, nis, applied = step_marks(marks, ts, zs, [self.noise[n].var for n in names], speeds, self.cfg.gate)
         judged = self._judged
-        for name, t, z, y, S, ok in zip(names, ts, zs, ys.tolist(), Ss.tolist(), applied.tolist()):
-            judged(name, t, z, y, S, ok)
+        for name, t, z, y, S, q, ok in zip(names, ts, zs, ys.tolist(), Ss.tolist(), nis.tolist(), applied.tolist()):
+            judged(name, t, z, y, S, q, ok)
 
-    def _judged(self, name: str, t: float, z: float, y: float, S: float, applied: bool) -> None:
+    def _judged(self, name: str, t: float, z: float, y: float, S: float, nis: float, applied: bool) -> None:
         """What a filtered reading says of its mark: jumped, gated, or used."""
         cfg, st = self.cfg, self.state[name]
         if st.gated(not applied, cfg.jump_after):
             st.out("jumped")
+            self.reset(f"{name}: most of its last {cfg.jump_after} readings beyond the gate: restarted", t)
             self._start(name, t, z)
             return
         if not applied:
-            self.rejected[f"{name}.gate"] += 1
+            self.gated(name)
             return
+        self.updated(name, nis, 1)
         if cfg.adapt_r:
             self.noise[name].add(y, S)
         if st.lost_share > cfg.max_lost:
@@ -239,36 +203,10 @@ class DraftCore:
         k = derived.barrass_squat(1.0, self.cfg.block_coefficient or 0.7, self.cfg.blockage)
         return k, max(k, 0.02)
 
-    def _fit_speed(self, t: float, v: float) -> None:
-        """The STW's least-squares line over the last `speed_window` seconds.
-
-        Why not the latest estimate as it is: its second-to-second scatter (about 1 cm/s)
-        is, in V², as large as a fast squat ramp's own change; a filter fed noisy
-        increments takes them for too weak a squat (regression dilution) and lets the
-        level's rate carry the ramp instead. A line follows a ramp without lag."""
-        recent = self._stw_recent
-        if recent and t < recent[-1][0] - 1e-9:
-            return
-        recent.append((t, v))
-        while recent and recent[0][0] < t - self.cfg.speed_window:
-            recent.popleft()
-        if len(recent) < 3:
-            self._stw_fit = (t, v, 0.0)
-            return
-        ts = np.array([r[0] for r in recent]) - t
-        vs = np.array([r[1] for r in recent])
-        rate, at_t = np.polyfit(ts, vs, 1)
-        self._stw_fit = (t, float(at_t), float(rate))
-
     def _speed(self, t: float) -> tuple[float | None, float]:
-        """STW squared at t (m²/s², None: none fresh) and its rate: the fitted line
-        carried forward, for at most two seconds."""
-        cfg = self.cfg
-        if not cfg.squat_from_speed or self._stw is None or t - self._stw[0] > cfg.stw_max_age:
-            return None, 0.0
-        t0, v0, rate = self._stw_fit
-        v = max(v0 + rate * min(max(t - t0, 0.0), 2.0), 0.0)
-        return v * v, 2.0 * v * rate
+        """STW squared at t (m²/s², None: none fresh, or the squat not from the speed)
+        and its rate."""
+        return self.speed.squared(t) if self.cfg.squat_from_speed else (None, 0.0)
 
     def _predict(self, f: WaveMark | PaperMark, t: float) -> None:
         if isinstance(f, WaveMark):
@@ -296,11 +234,27 @@ class DraftCore:
         if not self.filters:
             return []
         self._retune(t)
+        marks, means = self._marks_at(t)
+        self._drop_disagreeing(t, marks, means)
+        self._judge_settling(t, marks, means)
+        filled, means, converging = self._filled_means(t, means)
+        pos = derived.floating_position(filled, cfg.beam)
+        mean_std = self._mean_draft_std(means) if pos["mean_draft"] is not None else None
+        values: dict[str, Any] = {"marks": marks, **pos, "mean_draft_std": mean_std, "filled": list(self._filled),
+                                  "mode": cfg.mode, "converging": converging}
+        values.update(self._squat_ukc(t, filled))
+        values.update(self.cargo.at(t, pos["mean_draft"], mean_std))
+        return [Estimate("draft", "draft", t, values)]
+
+    def _marks_at(self, t: float) -> tuple[dict[str, dict[str, Any]], dict[str, float | None]]:
+        """Each mark's published values at t, and the means of the marks in (None: out).
+        Its instantaneous draft is its mean plus the rigid hull's wave part while that
+        fit explains the marks (`_rigid_explains`)."""
         marks: dict[str, dict[str, Any]] = {}
         means: dict[str, float | None] = {}
         for name in derived.MARKS:
             st = self.state[name]
-            st.check_silence(t, cfg.silence)
+            st.check_silence(t, self.cfg.silence)
             f = self.filters.get(name)
             if f is None:
                 marks[name] = {"draft": None, "mean": None, "rate": None, "amplitude": None, "std": None, "ok": False}
@@ -320,36 +274,51 @@ class DraftCore:
                 f = self.filters[m]
                 marks[m]["draft"] = f.mean + w
                 marks[m]["std"] = math.sqrt(max(var + f.mean_var, 0.0))
-        # a good mark that has moved from what the others say of it by 1.5 × `agree` for
-        # two seconds is out (a jump of 5σ the gate lets through a reading in ten of,
-        # which the filter then follows; a slow drift)
-        # (of a pair that disagree only one is wrong, and the geometry cannot say which:
-        # the one whose readings the gate has stopped more often lately is put out)
+        return marks, means
+
+    def _drop_disagreeing(self, t: float, marks: dict[str, dict[str, Any]], means: dict[str, float | None]) -> None:
+        """A good mark that has moved from what the others say of it by 1.5 × `agree` for
+        two seconds is out (a jump of 5σ the gate lets through a reading in ten of,
+        which the filter then follows; a slow drift). Of a pair that disagree only one
+        is wrong, and the geometry cannot say which: the one whose readings the gate
+        has stopped more often lately is put out."""
         suspects = []
         for name in derived.MARKS:
             st = self.state[name]
             if st.ok and means[name] is not None:
                 exp = derived.fill(name, {**means, name: None})
-                if st.drifting(t, None if exp is None else means[name] - exp, 1.5 * cfg.agree, DISAGREE_HOLD):
+                if st.drifting(t, None if exp is None else means[name] - exp, 1.5 * self.cfg.agree, DISAGREE_HOLD):
                     suspects.append(name)
         if suspects:
             name = max(suspects, key=lambda m: self.state[m].gated_lately)
             self.state[name].out("disagrees")
             means[name] = None
             marks[name]["ok"] = False
-        # marks settling back: do they agree with the others?
+
+    def _judge_settling(self, t: float, marks: dict[str, dict[str, Any]], means: dict[str, float | None]) -> None:
+        """Marks settling back: do they agree with the others? At the estimator's start
+        (its first `settle` seconds), a mark not yet in is judged at every tick after
+        START_SETTLE: the sea still in the first means may put one past `agree` at the
+        first look, and it is not a return."""
+        cfg = self.cfg
         for name in derived.MARKS:
             st, f = self.state[name], self.filters.get(name)
             if f is None or st.reason != "settling":
                 continue
-            # at the estimator's start (its first `settle` seconds), a mark not yet in is
-            # judged at every tick after START_SETTLE: the sea still in the first means
-            # may put one past `agree` at the first look, and it is not a return
             starting = st.first and self._t_first is not None and t - self._t_first < cfg.settle
             st.judge(t, START_SETTLE if starting else cfg.settle, cfg.agree, f.mean, derived.fill(name, means))
             if st.ok:
                 means[name] = f.mean
                 marks[name]["ok"] = True
+
+    def _filled_means(self, t: float, means: dict[str, float | None]) -> tuple[dict[str, float | None],
+                                                                              dict[str, float | None], bool]:
+        """(means with the marks out filled from their partner and the list, the means
+        the σ is taken from, converging). In the estimator's first seconds no mark is in
+        yet (each settles START_SETTLE s), but the starting marks' means are known with
+        their σ: from EARLY_AFTER the derived values come from them (a mark out for a
+        fault is left out, and filled as ever), `converging` (a demo's stayed null for
+        ten seconds)."""
         filled = dict(means)
         self._filled = []
         for name in derived.MARKS:
@@ -358,29 +327,16 @@ class DraftCore:
                 if v is not None:
                     filled[name] = v
                     self._filled.append(name)
-        converging = False
         if all(m is None for m in means.values()) and self._t_first is not None \
                 and t - self._t_first >= EARLY_AFTER:
-            # The estimator's first seconds: no mark is in yet (each settles START_SETTLE
-            # s), but the starting marks' means are known with their σ: the derived
-            # values from them (a mark out for a fault is left out, and filled from its
-            # partner and the list as ever), `converging` (a demo's stayed null for ten
-            # seconds).
             early = {m: self.filters[m].mean if self._starting(m) else None for m in derived.MARKS}
             filled = dict(early)
             for name in derived.MARKS:
                 if early[name] is None:
                     filled[name] = derived.fill(name, early)
             if any(v is not None for v in early.values()):
-                means = early
-                converging = True
-        pos = derived.floating_position(filled, cfg.beam)
-        mean_std = self._mean_draft_std(means) if pos["mean_draft"] is not None else None
-        values: dict[str, Any] = {"marks": marks, **pos, "mean_draft_std": mean_std, "filled": list(self._filled),
-                                  "mode": cfg.mode, "converging": converging}
-        values.update(self._squat_ukc(t, filled))
-        values.update(self._cargo(t, pos["mean_draft"], mean_std))
-        return [Estimate("draft", "draft", t, values)]
+                return filled, early, True
+        return filled, means, False
 
     def _rigid_explains(self, waves: dict[str, tuple[float, float]], rigid: dict[str, tuple[float, float]]) -> bool:
         """Whether one rigid body's heave, pitch and roll explain the marks' own wave
@@ -427,12 +383,13 @@ class DraftCore:
             self._water += a * (water - self._water)
 
     def _squat_ukc(self, t: float, filled: dict[str, float | None]) -> dict[str, Any]:
-        cfg = self.cfg
+        cfg, speed = self.cfg, self.speed
         squat = squat_std = None
-        if cfg.block_coefficient is not None and self._stw is not None and t - self._stw[0] <= cfg.stw_max_age:
-            squat = derived.barrass_squat(self._stw[1], cfg.block_coefficient, cfg.blockage)
-            if self._stw_std is not None and self._stw[1] > 0.0:
-                squat_std = 2.0 * squat / self._stw[1] * self._stw_std  # S ∝ V²: dS = 2S/V·dV
+        if cfg.block_coefficient is not None and speed.fresh(t):
+            stw = speed.latest[1]  # type: ignore[index]
+            squat = derived.barrass_squat(stw, cfg.block_coefficient, cfg.blockage)
+            if speed.std is not None and stw > 0.0:
+                squat_std = 2.0 * squat / stw * speed.std  # S ∝ V²: dS = 2S/V·dV
         ukc = None
         known = [v for v in filled.values() if v is not None]
         if self._depth is not None and t - self._depth[0] <= cfg.depth_max_age and self._water is not None \
@@ -451,52 +408,14 @@ class DraftCore:
         n = len(got) + len(self._filled)
         return math.sqrt(max(total, 0.0)) / n
 
-    def _cargo(self, t: float, mean_draft: float | None, mean_std: float | None) -> dict[str, Any]:
-        cfg = self.cfg
-        none = {"displacement_change": None, "displacement_change_std": None, "cargo_rate": None,
-                "cargo_rate_std": None}
-        if mean_draft is None or (cfg.tpc is None and not cfg.hydrostatics):
-            return none
-        if self._first_mean_t is None:
-            self._first_mean_t = t
-        if self._reference is None:
-            if t - self._first_mean_t < cfg.reference_after:
-                return none
-            self._reference = (t, mean_draft)
-            self._reference_std = mean_std or 0.0
-        got = derived.displacement(mean_draft, cfg.tpc, cfg.hydrostatics, self._reference[1])
-        if got is None:
-            return none
-        change, per_metre = got
-        # the rate: the mean draft's least-squares slope over the last `cargo_window` s.
-        # An instant of the level's own rate wanders by ±0.7 mm/s in a 12-s sea: tens of
-        # thousands of t/h on a Capesize, where a discharge runs at a few thousand
-        hist = self._history
-        hist.append((t, mean_draft))
-        while hist and hist[0][0] < t - cfg.cargo_window:
-            hist.popleft()
-        rate = rate_std = None
-        if len(hist) >= 10:
-            ts = np.array([h[0] for h in hist]) - t
-            ds = np.array([h[1] for h in hist])
-            slope, d0 = np.polyfit(ts, ds, 1)
-            rate = float(slope)
-            res = ds - (d0 + rate * ts)
-            rate_std = _slope_std(ts, res)
-        change_std = per_metre * math.hypot(mean_std or 0.0, self._reference_std)
-        return {"displacement_change": change, "displacement_change_std": change_std,
-                "cargo_rate": None if rate is None else per_metre * rate * 3600.0,
-                "cargo_rate_std": None if rate_std is None else per_metre * rate_std * 3600.0}
-
-    def health(self) -> dict[str, Any]:
+    def details(self) -> dict[str, Any]:
         marks = {}
         for name, st in self.state.items():
             n = self.noise.get(name)
             marks[name] = {"ok": st.ok, "why": st.reason, "sigma": None if n is None else round(math.sqrt(n.var), 5),
                            "disagree": st.disagree, **dict(st.counts)}
         out: dict[str, Any] = {"mode": self.cfg.mode, "marks": marks, "filled": list(self._filled),
-                               "out": sorted(m for m, st in self.state.items() if not st.ok),
-                               "rejected": dict(sorted(self.rejected.items())), "seen": self.seen}
+                               "out": sorted(m for m, st in self.state.items() if not st.ok)}
         if self.cfg.mode != "paper" and self.filters:
             f = next(iter(self.filters.values()))
             if isinstance(f, WaveMark):
@@ -507,8 +426,7 @@ class DraftCore:
                                             if isinstance(g, WaveMark)}
         out["rigid"] = {"chi2_per_dof": round(self._rigid_chi2, 2), "used": self._rigid_chi2 <= RIGID_CHI2}
         out["depth"] = self._depth is not None
-        out["stw"] = self._stw is not None
-        out["problems"] = self.problems()
+        out["stw"] = self.speed.latest is not None
         return out
 
     def problems(self) -> list[str]:

@@ -1,4 +1,5 @@
-"""The `draft` estimator plugin (entry point `edged.estimators: draft`)."""
+"""The `draft` estimator plugin (entry point `edged.estimators: draft`; its estimate's
+fields: `edged.estimate_kinds: draft`, `estimate.py`)."""
 
 from __future__ import annotations
 
@@ -12,14 +13,12 @@ from .core import DraftCore
 
 class DraftEstimator(EstimatorPlugin):
     Config = DraftConfig
+    Core = DraftCore
     kind: ClassVar[str | None] = "draft"
     description: ClassVar[str] = (
         "draft at six marks with the waves separated from the mean; trim, list, deflection, squat, "
         "under-keel clearance and cargo (seed 003)"
     )
-
-    def make_core(self) -> DraftCore:
-        return DraftCore(self.config)
 
     def status(self) -> dict[str, Any]:
         return {"mode": self.config.mode}

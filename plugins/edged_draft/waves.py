@@ -45,138 +45,13 @@ from typing import Any
 
 import numpy as np
 
+from .bank import WaveBank
 
 #: Seconds between the samples of each resonator's energy and of the wave part's
 #: square (`WaveMark._sample`): one reading in ten at 100 Hz, a tenth of the work.
 #: (The phase advance the bank retunes from is read at every update: read over
 #: 0.1 s, the 90-s mean errors of a regular sea doubled.)
 SAMPLE_STEP = 0.1
-
-
-class WaveBank:
-    """The shared parts of every mark's model: frequencies, H, F and Q per step size."""
-
-    #: The first resonator's row of the state (d, ḋ, d̈, κ before it).
-    W0 = 4
-
-    def __init__(self, period_min: float, period_max: float, k: int, damping: float, q_jerk: float,
-                 q_squat: float = 0.0) -> None:
-        w_hi, w_lo = 2.0 * math.pi / period_min, 2.0 * math.pi / period_max
-        self.omega0 = np.exp(np.linspace(math.log(w_lo), math.log(w_hi), k)) if k > 1 else np.array([w_lo])
-        self.omega = self.omega0.copy()
-        # each resonator keeps to its own band (half-way to its neighbours, in log ω)
-        step = math.log(w_hi / w_lo) / (k - 1) if k > 1 else 0.1
-        self.omega_lo, self.omega_hi = self.omega0 * math.exp(-0.5 * step), self.omega0 * math.exp(0.5 * step)
-        self._err = np.zeros(k)  # Σ energy × (phase rate − ω) since the last retune
-        self._wsum = np.zeros(k)
-        self.k = k
-        self.zeta = damping
-        self.q_jerk = q_jerk
-        self.q_squat = q_squat
-        w0 = self.W0
-        self.n = w0 + 2 * k
-        H = np.zeros(self.n)
-        H[0] = 1.0
-        H[w0::2] = 1.0
-        self.H = H
-        self.idx = np.flatnonzero(H)
-        # the resonators' diagonal in a flattened P: a strided slice (a view, not a gather)
-        self.wave_diag = slice(w0 * (self.n + 1), None, self.n + 1)
-        self._cache: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._rot: dict[float, tuple[np.ndarray, np.ndarray]] = {}  # see rotation()
-        # every mark's state, one row each (`WaveMark.row`): stacked, so that a reading
-        # from each of six marks is one numpy call, not six (`step_marks`)
-        self.X = np.zeros((0, self.n))
-        self.P = np.zeros((0, self.n, self.n))
-        self.var_k = np.zeros((0, k))  # each resonator's σ_k² (`sample`)
-        self.var2 = np.zeros((0, 2 * k))  # the same per state (c_k, s_k), for Q
-        self.prev_c = np.zeros((0, k))  # the resonators at each mark's last update
-        self.prev_s = np.zeros((0, k))
-        self.prev_t = np.zeros(0)  # its time (NaN: none yet)
-
-    @property
-    def rows(self) -> int:
-        return len(self.X)
-
-    def new_row(self) -> int:
-        """A row for one more mark's state."""
-        r = self.rows
-        self.X = np.concatenate([self.X, np.zeros((1, self.n))])
-        self.P = np.concatenate([self.P, np.zeros((1, self.n, self.n))])
-        self.var_k = np.concatenate([self.var_k, np.zeros((1, self.k))])
-        self.var2 = np.concatenate([self.var2, np.zeros((1, 2 * self.k))])
-        self.prev_c = np.concatenate([self.prev_c, np.zeros((1, self.k))])
-        self.prev_s = np.concatenate([self.prev_s, np.zeros((1, self.k))])
-        self.prev_t = np.concatenate([self.prev_t, [math.nan]])
-        return r
-
-    def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """F(dt), the unit-variance part of the resonators' Q (1 − e^(−2ζω dt)) and the
-        level's and κ's Q (4 × 4), made once per step size (the sensors keep to their
-        rate)."""
-        key = round(dt, 6)
-        got = self._cache.get(key)
-        if got is not None:
-            return got
-        F = np.zeros((self.n, self.n))
-        F[0, 0] = F[1, 1] = F[2, 2] = F[3, 3] = 1.0
-        F[0, 1] = F[1, 2] = dt
-        F[0, 2] = 0.5 * dt * dt
-        decay = np.exp(-self.zeta * self.omega * dt)
-        for i, (w, a) in enumerate(zip(self.omega, decay)):
-            j = self.W0 + 2 * i
-            c, s = a * math.cos(w * dt), a * math.sin(w * dt)
-            F[j, j], F[j, j + 1], F[j + 1, j], F[j + 1, j + 1] = c, -s, s, c
-        unit = 1.0 - np.exp(-2.0 * self.zeta * self.omega * dt)
-        if len(self._cache) > 64:
-            self._cache.clear()
-        level_q = np.zeros((4, 4))
-        level_q[:3, :3] = self.level_q(dt)
-        level_q[3, 3] = self.q_squat * dt
-        got = self._cache[key] = (F, np.repeat(unit, 2), level_q)
-        return got
-
-    def rotation(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Each resonator's a cos(ω dt) and a sin(ω dt), as in F(dt): the compiled
-        predict's view of F (`kernel.predict_marks`)."""
-        key = round(dt, 6)
-        got = self._rot.get(key)
-        if got is None:
-            F = self.transition(dt)[0]
-            w0 = self.W0
-            idx = np.arange(w0, self.n, 2)
-            if len(self._rot) > 64:
-                self._rot.clear()
-            got = self._rot[key] = (F[idx, idx].copy(), F[idx + 1, idx].copy())
-        return got
-
-    def observe_phase(self, energy: np.ndarray, rate_error: np.ndarray) -> None:
-        """A mark's resonators turned at ω + rate_error (rad/s) with this energy (or
-        several marks', one row each)."""
-        if energy.ndim == 1:
-            self._err += energy * rate_error
-            self._wsum += energy
-        else:
-            self._err += (energy * rate_error).sum(axis=0)
-            self._wsum += energy.sum(axis=0)
-
-    def retune(self, gain: float) -> None:
-        """Move each ω toward the phase rate its resonators showed, energy-weighted
-        over all marks (one sea under all of them), by `gain` of the difference."""
-        ok = self._wsum > 0.0
-        if not np.any(ok):
-            return
-        d = np.where(ok, self._err / np.where(ok, self._wsum, 1.0), 0.0)
-        self.omega = np.clip(self.omega + gain * d, self.omega_lo, self.omega_hi)
-        self._err[:] = 0.0
-        self._wsum[:] = 0.0
-        self._cache.clear()
-        self._rot.clear()
-
-    def level_q(self, dt: float) -> np.ndarray:
-        q = self.q_jerk
-        d2, d3, d4, d5 = dt * dt, dt**3, dt**4, dt**5
-        return q * np.array([[d5 / 20.0, d4 / 8.0, d3 / 6.0], [d4 / 8.0, d3 / 3.0, d2 / 2.0], [d3 / 6.0, d2 / 2.0, dt]])
 
 
 class WaveMark:
@@ -381,7 +256,7 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
     `WaveMark.update` does for one.
     """
     bank = marks[0].bank
-    w0, n, B = bank.W0, bank.n, len(marks)
+    B = len(marks)
     rows = [m.row for m in marks]
     # every mark once, in the bank's order (the core sends them so): its arrays as they
     # are; otherwise the rows taken out and put back
@@ -390,9 +265,33 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         dt0 = ts[0] - marks[0].t
         if dt0 > 0.0 and all(t - m.t == dt0 for t, m in zip(ts, marks)):
             return _step_compiled(bank, marks, ts, zs, Rs, speeds, gate, dt0)
-    X, P = bank.X[sel], bank.P[sel]
     dts = [max(t - m.t, 0.0) for t, m in zip(ts, marks)]
-    # -- predict: x ← F x, P ← F P Fᵀ + Q (the level's jerk, κ's walk, each resonator's drive)
+    X, P = _predict_stacked(bank, marks, sel, dts, speeds)
+    _moved(marks, ts, dts, speeds, X)
+    # -- update: z = H x + v
+    H = bank.H
+    PHt = P @ H
+    y = np.array(zs) - X @ H
+    S = PHt @ H + np.array(Rs)
+    nis = y * y / S
+    applied = np.ones(B, dtype=bool) if gate is None else nis <= gate
+    K = PHt / S[:, None]
+    if not applied.all():
+        K[~applied] = 0.0
+    X += K * y[:, None]
+    P -= K[:, :, None] * PHt[:, None, :]  # P − K H P
+    _phase_stacked(bank, marks, sel, X, applied)
+    bank.X[sel], bank.P[sel] = X, P
+    return y, S, nis, applied
+
+
+def _predict_stacked(bank: WaveBank, marks: list[WaveMark], sel: slice | list[int], dts: list[float],
+                     speeds: list[tuple[float | None, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """`step_marks`'s predict of the rows `sel`, each by its dt: x ← F x,
+    P ← F P Fᵀ + Q (the level's jerk, κ's walk, each resonator's drive), then the
+    squat's d ← d + Δu·κ. Returns the predicted states and covariances."""
+    B, n = len(marks), bank.n
+    X, P = bank.X[sel], bank.P[sel]
     if all(dt == dts[0] for dt in dts):
         F, unit, level_q = bank.transition(dts[0])
         X = X @ F.T
@@ -414,20 +313,14 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         X[:, 0] += d * X[:, 3]
         P[:, 0, :] += d[:, None] * P[:, 3, :]
         P[:, :, 0] += d[:, None] * P[:, :, 3]
-    _moved(marks, ts, dts, speeds, X)
-    # -- update: z = H x + v
-    H = bank.H
-    PHt = P @ H
-    y = np.array(zs) - X @ H
-    S = PHt @ H + np.array(Rs)
-    nis = y * y / S
-    applied = np.ones(B, dtype=bool) if gate is None else nis <= gate
-    K = PHt / S[:, None]
-    if not applied.all():
-        K[~applied] = 0.0
-    X += K * y[:, None]
-    P -= K[:, :, None] * PHt[:, None, :]  # P − K H P
-    # -- the phase advance since each mark's last update, beyond ω (for the retune)
+    return X, P
+
+
+def _phase_stacked(bank: WaveBank, marks: list[WaveMark], sel: slice | list[int], X: np.ndarray,
+                   applied: np.ndarray) -> None:
+    """`step_marks`'s phase advance of each updated mark since its last update, beyond
+    ω (for the retune), and the resonators kept for the next."""
+    w0 = bank.W0
     t_now = np.array([m.t for m in marks])
     C, Sn = X[:, w0::2], X[:, w0 + 1::2]
     pt = bank.prev_t[sel]
@@ -448,8 +341,6 @@ def step_marks(marks: list[WaveMark], ts: list[float], zs: list[float], Rs: list
         bank.prev_c[sel] = np.where(keep, C, pc)
         bank.prev_s[sel] = np.where(keep, Sn, ps)
         bank.prev_t[sel] = np.where(applied, t_now, pt)
-    bank.X[sel], bank.P[sel] = X, P
-    return y, S, nis, applied
 
 
 #: kernel.py once imported (False: not yet; None: numba missing, numpy only). Imported

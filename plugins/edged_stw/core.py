@@ -1,10 +1,10 @@
 """The STW estimator core: measurements in data-time order in, estimates at ticks out.
 
 It owns what both modes share: which inputs arrived and which are missing (and what
-that costs), the heading and rate of turn, the IMU averaging, the forecasts (their age,
-repeats, correlation and gate), the GNSS gates and their recovery, the Doppler log
-reading kept beside the estimate, the health report and the log-error warning.
-The filters themselves are `vector.VectorModel` and `paper.PaperModel`.
+that costs), the IMU averaging, the forecasts (their age, repeats, correlation and
+gate), the GNSS gates and their recovery, and the health report. The filters
+themselves are `vector.VectorModel` and `paper.PaperModel`; the heading and rate of
+turn are `motion.Motion`'s, the Doppler log beside the estimate `logcheck.LogCheck`'s.
 """
 
 from __future__ import annotations
@@ -14,19 +14,18 @@ import math
 from collections import Counter, deque
 from typing import Any
 
-from edged.innovation import InnovationMonitor
-from edged.units import finite_numbers as _finite
+from edged.estimator import Estimator, handles
 from edged.records import Estimate, Measurement
+from edged.units import finite_numbers as _finite
 
 from .config import StwConfig
-from .heading import HeadingTrack
+from .logcheck import LogCheck
+from .motion import Motion
 from .paper import PaperModel, haversine
-from .vector import DVL_GATE, VectorModel
-from .watch import LogWatch, NisWatch
+from .vector import VectorModel
+from .watch import NisWatch
 
 log = logging.getLogger("edged.stw")
-
-INPUTS = frozenset({"position", "velocity_ground", "heading", "yaw_rate", "accel_body", "current", "water_speed"})
 
 #: What a vessel loses without each input (health `info.filter.missing`).
 COSTS: dict[str, str] = {
@@ -40,10 +39,6 @@ COSTS: dict[str, str] = {
     "water_speed": "no Doppler/EM log: dvl_stw, dvl_bias and dvl_scale are null",
     "yaw_rate": "no rate-of-turn sensor: turns are found from the heading's changes, a few seconds late",
 }
-#: Inputs of each kind older than this (s) are not used as "the latest".
-HEADING_MAX_AGE = 30.0
-YAW_RATE_MAX_AGE = 5.0
-DVL_MAX_AGE = 10.0
 #: No sea current runs faster (m/s; the Pentland Firth's 8 m/s is among the fastest).
 MAX_CURRENT = 10.0
 #: Accelerations beyond this (m/s², 2 g) are not a ship's.
@@ -58,71 +53,57 @@ GROUND = frozenset({"position", "velocity_ground"})
 WATCHED = ("position", "velocity_ground", "accel_body", "heading_course", "current")
 
 
-class StwCore:
-    inputs = INPUTS
-
+class StwCore(Estimator):
     def __init__(self, cfg: StwConfig) -> None:
-        self.cfg = cfg
+        super().__init__(cfg)
+        self.cfg: StwConfig = cfg
         self.model: VectorModel | PaperModel = VectorModel(cfg) if cfg.mode == "vector" else PaperModel(cfg)
-        self.monitor = InnovationMonitor(window=100)
-        self.seen: Counter[str] = Counter()
-        self.rejected: Counter[str] = Counter()
-        self.heading = HeadingTrack(cfg.heading_average)
-        self._rot: tuple[float, float] | None = None  # t, rad/s from a rate-of-turn sensor
+        self.motion = Motion(cfg.heading_average, cfg.turn_rate_max_deg, cfg.turn_settle)
+        self.log = LogCheck(cfg, self)
         self._accel: list[float] | None = None  # [t_first, t_last, sum_n, sum_e, n]
-        self._dvl: tuple[float, float] | None = None  # t, stw_long
         self._last_forecast: tuple[str, float, float, float | None] | None = None
         self._forecast_t = -math.inf  # data time of the last accepted forecast
         self._constant_t = -math.inf
         self._gated_in_row: Counter[str] = Counter()
         #: Per GNSS kind, the last measurement the gate kept out (t, how to trust it).
         self._gated_last: dict[str, tuple[float, Any]] = {}
-        self._warnings: list[str] = []
         self._pending_forecast: tuple[float, float, float, float] | None = None
         self._forecast_nis: list[float] = []
         #: The last forecast used (t, set, drift, σ): it starts a restarted filter.
         self._used_forecast: tuple[float, float, float, float] | None = None
         self._ground_t: float | None = None  # data time of the last GNSS measurement
         self._fix: tuple[float, float] | None = None  # the last position taken
-        self._turn_t = -math.inf  # data time of the last sign of a turn
         self._log_forecast = False  # the log's current copy has seen a forecast
         self._recent: dict[str, deque[bool]] = {}  # gate verdicts per kind (True: gated)
         self.nis_watch = NisWatch()
-        self.log_watch = LogWatch(cfg.min_speed)
-        self._last_t: float | None = None
         self._carry_distance: float | None = None  # the distance before a gap, for the next filter
         self._published_distance = 0.0
-        self._log_reason: str | None = "no estimate yet"  # why dvl_bias is null (None: published)
 
     # ------------------------------------------------------------------ inputs
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        kind = rec.kind if isinstance(rec, Measurement) else None
-        if kind is None:
+        """Around each input's handler: a gap in the GNSS restarts the filter, the paper
+        model advances and the ground filter takes the rate of turn; after it, a forecast
+        held for the filter's start is used and the constant current comes due."""
+        if rec.route_key not in self._dispatch:
             return []
         t = rec.t
-        v = rec.values
-        if self._last_t is None or t > self._last_t:
-            self._last_t = t
-        if kind in GROUND and self._ground_t is not None and t - self._ground_t > self.cfg.reset_after:
+        if rec.kind in GROUND and self._ground_t is not None and t - self._ground_t > self.cfg.reset_after:
             self._restart(t, f"no GNSS for {t - self._ground_t:.0f} s (reset_after {self.cfg.reset_after:g} s): "
                              "restarted from the next measurements")
         if isinstance(self.model, PaperModel):
             for nis in self.model.advance(t):
-                self.monitor.update("gnss", nis, 2)
-        handler = getattr(self, "_on_" + kind, None)
+                self.updated("gnss", nis, 2)
         if isinstance(self.model, VectorModel) and self.model.ground is not None:
-            self.model.ground.r = self._rate(t)
-        if handler is not None:
-            self.seen[kind] += 1
-            was_ready = self.model.ready
-            handler(t, v, rec)
-            if not was_ready and self.model.ready and self._pending_forecast is not None:
-                t_f, *forecast = self._pending_forecast
-                self._pending_forecast = None
-                if t - t_f <= self.cfg.forecast_max_age:
-                    self._forecast(t, *forecast)
-                else:
-                    self.rejected["current.stale"] += 1
+            self.model.ground.r = self.motion.rate(t)
+        was_ready = self.model.ready
+        super().step(rec)
+        if not was_ready and self.model.ready and self._pending_forecast is not None:
+            t_f, *forecast = self._pending_forecast
+            self._pending_forecast = None
+            if t - t_f <= self.cfg.forecast_max_age:
+                self._forecast(t, *forecast)
+            else:
+                self.rejected["current.stale"] += 1
         self._constant_current(t)
         return []
 
@@ -149,10 +130,12 @@ class StwCore:
         self._ground_t = None
         if self._used_forecast is not None:
             self._pending_forecast = self._used_forecast
-        self.monitor.reset(reason, t)
+        self.reset(reason, t)
         log.info("stw: %s", reason)
 
-    def _on_position(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+    @handles("position")
+    def _on_position(self, rec: Measurement) -> None:
+        t, v = rec.t, rec.values
         lat, lon = v.get("lat"), v.get("lon")
         if not _finite(lat, lon):
             self.rejected["position.incomplete"] += 1
@@ -176,7 +159,9 @@ class StwCore:
         nis, used = m.position(t, lat, lon)
         self._gate_result(t, "position", nis, used, lambda: m.reset_position(lat, lon), "position jump")
 
-    def _on_velocity_ground(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+    @handles("velocity_ground")
+    def _on_velocity_ground(self, rec: Measurement) -> None:
+        t, v = rec.t, rec.values
         sog, cog = v.get("sog"), v.get("cog")
         if sog is not None and cog is None and _finite(sog) and sog < 0.05:
             cog = 0.0  # stopped: no course, and none needed
@@ -199,17 +184,16 @@ class StwCore:
         nis, used = m.velocity(t, v_n, v_e)
         self._gate_result(t, "velocity_ground", nis, used, lambda: m.reset_velocity(v_n, v_e), "SOG/COG jump")
         if used:
-            heading = self._fresh_heading(t)
-            if heading is not None and not self._turning(t):
+            heading = self.motion.heading_at(t)
+            if heading is not None and not self.motion.turning(t):
                 res = m.cross(t, heading)
                 if res is not None:
                     nis, used = res
                     self._verdict("heading_course", not used)
                     if used:
-                        self.monitor.update("heading_course", nis, 1)
+                        self.updated("heading_course", nis, 1)
                     else:
-                        self.monitor.gated("heading_course")
-                        self.rejected["heading_course.gate"] += 1
+                        self.gated("heading_course")
 
     def _verdict(self, kind: str, gated: bool) -> None:
         q = self._recent.get(kind)
@@ -231,17 +215,16 @@ class StwCore:
             self._gated_in_row[kind] = 0
             self._gated_last.pop(kind, None)
             if nis is not None:
-                self.monitor.update(kind, nis, 2)
+                self.updated(kind, nis, 2)
             return
-        self.monitor.gated(kind)
-        self.rejected[f"{kind}.gate"] += 1
+        self.gated(kind)
         other = self._gated_last.get("position" if kind == "velocity_ground" else "velocity_ground")
         if other is not None and abs(t - other[0]) <= GNSS_EPOCH:
             other[1]()
             reset()
             self._gated_last.clear()
             self._gated_in_row.clear()
-            self.monitor.reset("GNSS position and velocity both disagree with the filter: a manoeuvre it missed; "
+            self.reset("GNSS position and velocity both disagree with the filter: a manoeuvre it missed; "
                                "restarted from the GNSS", None)
             return
         self._gated_last[kind] = (t, reset)
@@ -249,21 +232,25 @@ class StwCore:
         if self._gated_in_row[kind] >= self.cfg.gnss_reset_after:
             reset()
             self._gated_in_row[kind] = 0
-            self.monitor.reset(f"{what}: {self.cfg.gnss_reset_after} rejected in a row, GNSS trusted again", None)
+            self.reset(f"{what}: {self.cfg.gnss_reset_after} rejected in a row, GNSS trusted again", None)
 
-    def _on_heading(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
-        h = v.get("heading")
+    @handles("heading")
+    def _on_heading(self, rec: Measurement) -> None:
+        h = rec.values.get("heading")
         if not _finite(h):
             self.rejected["heading.incomplete"] += 1
             return
-        self.heading.add(t, h)
+        self.motion.heading.add(rec.t, h)
 
-    def _on_yaw_rate(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
-        r = v.get("r")
+    @handles("yaw_rate")
+    def _on_yaw_rate(self, rec: Measurement) -> None:
+        r = rec.values.get("r")
         if _finite(r):
-            self._rot = (t, r)
+            self.motion.rot = (rec.t, r)
 
-    def _on_accel_body(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+    @handles("accel_body")
+    def _on_accel_body(self, rec: Measurement) -> None:
+        t, v = rec.t, rec.values
         ax, ay = v.get("ax"), v.get("ay")
         if not _finite(ax, ay):
             self.rejected["accel_body.incomplete"] += 1
@@ -275,7 +262,7 @@ class StwCore:
         if isinstance(m, PaperModel):
             m.accel(ax, ay)
             return
-        psi = self._fresh_heading(t)
+        psi = self.motion.heading_at(t)
         if psi is None:
             if m.ground is None or m.ground.speed(m.ground.x) < self.cfg.min_speed:
                 self.rejected["accel_body.no_heading"] += 1
@@ -307,12 +294,13 @@ class StwCore:
             return
         self._verdict("accel_body", not used)
         if used:
-            self.monitor.update("accel_body", nis, 2)
+            self.updated("accel_body", nis, 2)
         else:
-            self.monitor.gated("accel_body")
-            self.rejected["accel_body.gate"] += 1
+            self.gated("accel_body")
 
-    def _on_current(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
+    @handles("current")
+    def _on_current(self, rec: Measurement) -> None:
+        t, v = rec.t, rec.values
         set_, drift = v.get("set"), v.get("drift")
         if not _finite(set_, drift):
             self.rejected["current.incomplete"] += 1
@@ -353,18 +341,17 @@ class StwCore:
         nis = m.forecast_nis(t, c_n, c_e, var)
         self._verdict("current", not nis <= self.cfg.forecast_gate)
         if not nis <= self.cfg.forecast_gate:
-            self.monitor.gated("current")
-            self.rejected["current.gate"] += 1
+            self.gated("current")
             self._gated_in_row["current"] += 1
             if self._gated_in_row["current"] < 2:
                 return
             # Two forecasts in a row disagree with the filter: the filter is wrong.
             m.forget_current()
-            self.monitor.reset("forecasts disagree with the current estimate: current forgotten", t)
+            self.reset("forecasts disagree with the current estimate: current forgotten", t)
             self._forecast_nis.clear()
             nis = m.forecast_nis(t, c_n, c_e, var)
         self._gated_in_row["current"] = 0
-        self.monitor.update("current", nis, 2)
+        self.updated("current", nis, 2)
         m.forecast(t, c_n, c_e, var)
         self._log_forecast = True
         self._used_forecast = (t, set_, drift, sigma)
@@ -388,96 +375,26 @@ class StwCore:
         self._forecast_t = t
         self._constant_t = t
 
-    def _on_water_speed(self, t: float, v: dict[str, Any], rec: Measurement) -> None:
-        z = v.get("stw_long")
+    @handles("water_speed")
+    def _on_water_speed(self, rec: Measurement) -> None:
+        t, z = rec.t, rec.values.get("stw_long")
         if not _finite(z):
             self.rejected["water_speed.incomplete"] += 1
             return
-        self._dvl = (t, z)
+        self.log.reading = (t, z)
         m = self.model
+        heading = self.motion.heading_at(t)
         est = None
         if isinstance(m, VectorModel) and m.ready:
-            est = m.estimate(t, self._fresh_heading(t))
+            est = m.estimate(t, heading)
         elif isinstance(m, PaperModel) and m.ready:
             est = m.estimate(t)
         if est is not None and est["stw_std"] > DVL_FIT_MAX_STD:
             est = None
         stw = None if est is None else est["stw"]
         stw_std = None if est is None else est["stw_std"]
-        verdict = self._fit_log(t, z, est)
-        self.log_watch.reading(t, z, stw, stw_std, verdict)
-
-    def _fit_log(self, t: float, z: float, est: dict[str, Any] | None) -> bool | None:
-        """One log reading into the fit of its offset; returns whether the gate
-        rejected it (None: not tried, and why is counted)."""
-        m = self.model
-        if self._turning(t):
-            self.rejected["water_speed.turning"] += 1
-            return None
-        if not self._log_forecast:
-            # Without a forecast the log's offset and the current along the ship are one
-            # unknown (dvl − SOG = b − c·x̂): nothing to fit yet.
-            self.rejected["water_speed.no_current"] += 1
-            return None
-        if est is None:
-            self.rejected["water_speed.unconverged"] += 1
-            return None
-        if est["stw"] < self.cfg.min_speed:
-            self.rejected["water_speed.slow"] += 1
-            return None
-        dry = self.log_watch.left_out
-        if isinstance(m, PaperModel):
-            nis, used = m.dvl(t, z, DVL_GATE, dry=dry)
-        else:
-            nis, used = m.dvl(t, z, self._fresh_heading(t), dry=dry)
-        if nis is None:
-            return None
-        if dry:
-            self.rejected["water_speed.left_out"] += 1
-            return not used
-        if used:
-            self.monitor.update("water_speed", nis, 1)
-        else:
-            self.monitor.gated("water_speed")
-            self.rejected["water_speed.gate"] += 1
-        return not used
-
-    # ----------------------------------------------------------------- helpers
-    def _fresh_heading(self, t: float) -> float | None:
-        """The smoothed heading, when the gyro is still talking."""
-        if not self.heading.fresh(t, HEADING_MAX_AGE):
-            return None
-        return self.heading.smoothed()
-
-    def _rate(self, t: float) -> float:
-        """The rate of turn the ground velocity turns by: the gyro's, else the smoothed
-        heading's, else 0 (rad/s)."""
-        rot = self._rot
-        if rot is not None and t - rot[0] <= YAW_RATE_MAX_AGE:
-            return rot[1]
-        rate = self.heading.rate
-        if rate is not None and t - rate[0] <= 2.0 * 5.0 and self.heading.fresh(t, 2.0):
-            return rate[1]
-        return 0.0
-
-    def _turning(self, t: float) -> bool:
-        """Turning now, or less than `turn_settle` s ago: the hull still sways."""
-        if self._turning_now(t):
-            self._turn_t = t
-            return True
-        return t - self._turn_t < self.cfg.turn_settle
-
-    def _turning_now(self, t: float) -> bool:
-        rot = self._rot
-        if rot is not None and t - rot[0] <= YAW_RATE_MAX_AGE:
-            r = rot[1]
-        elif self.heading.rate is not None and t - self.heading.rate[0] <= HEADING_MAX_AGE:
-            r = self.heading.rate[1]
-        else:
-            return False
-        if abs(r) > math.radians(self.cfg.turn_rate_max_deg):
-            return True
-        return self.heading.fresh(t, HEADING_MAX_AGE) and not self.heading.settled()
+        verdict = self.log.fit(t, z, m, heading, self.motion.turning(t), self._log_forecast, est)
+        self.log.watch.reading(t, z, stw, stw_std, verdict)
 
     # ------------------------------------------------------------------ output
     def tick(self, t: float) -> list[Estimate]:
@@ -488,27 +405,20 @@ class StwCore:
             return []
         if isinstance(m, PaperModel):
             for nis in m.advance(t):
-                self.monitor.update("gnss", nis, 2)
+                self.updated("gnss", nis, 2)
             values = m.estimate(t)
         else:
             self._flush_accel()
-            values = m.estimate(t, self._fresh_heading(t))
+            values = m.estimate(t, self.motion.heading_at(t))
         if values is None:
             return []
         ground_std = m.ground_std(t)
         if not ground_std <= self.cfg.publish_max_std:
             return []  # the ground velocity is not known yet (a start from positions alone)
         values["converging"] = ground_std > self.cfg.converged_std
-        dvl = self._dvl
-        values["dvl_stw"] = dvl[1] if dvl is not None and t - dvl[0] <= DVL_MAX_AGE else None
-        values.setdefault("dvl_bias", None)
-        values.setdefault("dvl_scale", None)
-        values.setdefault("dvl_std", None)
-        self._log_reason = self._log_observable(values)
-        if self._log_reason is not None:
-            values["dvl_bias"] = values["dvl_scale"] = values["dvl_std"] = None
+        self.log.publish(t, values, self._log_forecast)
         values["mode"] = self.cfg.mode
-        self._check_log(values)
+        self.log.warn(values)
         self._published_distance = max(self._published_distance, float(values["distance"]))
         snap = self.monitor.snapshot()["innovation"]
         recent = {k: sum(q) / len(q) for k, q in self._recent.items() if len(q) >= 10}
@@ -516,68 +426,12 @@ class StwCore:
                              {k: v for k, v in recent.items() if k in WATCHED})
         return [Estimate("stw", "stw", t, values)]
 
-    def _log_observable(self, v: dict[str, Any]) -> str | None:
-        """Why `dvl_bias` is null, or None when it is published."""
-        if not self.seen.get("water_speed"):
-            return "no Doppler/EM log reading"
-        if self.log_watch.left_out:
-            return str(self.log_watch.problem)
-        if not self._log_forecast:
-            return ("no current forecast: the log's offset and the current along the ship are one unknown "
-                    "(dvl − SOG = b − current along), so the offset is not observable")
-        std = v.get("dvl_std")
-        if std is None:
-            return "not fitted yet (the STW estimate is not converged, or the vessel is turning or slow)"
-        if not std["bias"] <= self.cfg.dvl_observable_std:
-            return (f"offset σ {std['bias']:.2f} m/s above dvl_observable_std {self.cfg.dvl_observable_std:.2f}: "
-                    "not observable yet")
-        return None
-
-    def _check_log(self, v: dict[str, Any]) -> None:
-        """Warn (in health, and in the log once per change) when the log is off: when
-        its offset (or scale) exceeds the tolerance with 95 % confidence; the warning
-        clears only below 80 % of the tolerance, so that a value near it does not
-        make the warning come and go."""
-        std = v.get("dvl_std")
-        warnings: list[str] = []
-        if std is not None:
-            b = v["dvl_bias"]
-            was = {w.split()[2] for w in self._warnings}
-            keep = 0.8 if "reads" in was else 1.0
-            if abs(b) - 1.96 * std["bias"] > keep * self.cfg.dvl_tolerance:
-                warnings.append(
-                    f"Doppler log reads {abs(b):.2f} m/s {'high' if b > 0 else 'low'} "
-                    f"(±{std['bias']:.2f}, tolerance {self.cfg.dvl_tolerance:.2f})"
-                )
-            if v["dvl_scale"] is not None and std["scale"] is not None:
-                k = v["dvl_scale"] - 1.0
-                keep = 0.8 if "scale" in was else 1.0
-                if abs(k) - 1.96 * std["scale"] > keep * self.cfg.dvl_scale_tolerance:
-                    warnings.append(
-                        f"Doppler log scale is {100 * k:+.1f} % (±{100 * std['scale']:.1f} %, "
-                        f"tolerance {100 * self.cfg.dvl_scale_tolerance:.1f} %)"
-                    )
-        if {w.split()[2] for w in warnings} != {w.split()[2] for w in self._warnings}:
-            for w in warnings:
-                log.warning("stw: %s", w)
-        self._warnings = warnings
-
-    def health(self) -> dict[str, Any]:
-        out = self.monitor.snapshot()
-        seen = {k: self.seen.get(k, 0) for k in sorted(INPUTS)}
-        out["mode"] = self.cfg.mode
-        out["seen"] = seen
+    def details(self) -> dict[str, Any]:
+        seen = self.seen
         missing = {k: COSTS[k] for k in COSTS if not seen.get(k)}
         if self.cfg.current is not None and "current" in missing:
             missing["current"] = "no current forecast: the configured constant current stands in"
-        out["missing"] = missing
-        out["rejected"] = dict(sorted(self.rejected.items()))
-        out["warnings"] = list(self._warnings)
-        out["dvl"] = {"published": self._log_reason is None, "reason": self._log_reason}
-        problems = list(self.nis_watch.problems.values())
-        if self.log_watch.problem is not None:
-            problems.append(self.log_watch.problem)
-        out["problems"] = problems
+        out: dict[str, Any] = {"mode": self.cfg.mode, "missing": missing, **self.log.details()}
         if isinstance(self.model, VectorModel):
             out.update(self.model.health())
             sigma = self.model.current_sigma()
@@ -586,4 +440,8 @@ class StwCore:
                 out["current_q_scale"] = round(self.model.current.q_scale, 3)
         return out
 
-
+    def problems(self) -> list[str]:
+        problems = list(self.nis_watch.problems.values())
+        if self.log.watch.problem is not None:
+            problems.append(self.log.watch.problem)
+        return problems

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import math
 
+from edged.angles import wrap_2pi, wrap_pi
+
 
 class HeadingTrack:
     def __init__(self, tau: float) -> None:
@@ -42,14 +44,14 @@ class HeadingTrack:
         if self._ref is None:
             self._ref = (t, mean)
         elif t - self._ref[0] >= 5.0:
-            d = (mean - self._ref[1] + math.pi) % (2.0 * math.pi) - math.pi
+            d = -wrap_pi(self._ref[1] - mean)  # in [−π, π): the same bits as the modulo it replaced
             self.rate = (t, d / (t - self._ref[0]))
             self._ref = (t, mean)
 
     def smoothed(self) -> float | None:
         if self.t is None or math.hypot(self._c, self._s) < 1e-6:
             return None
-        return math.atan2(self._s, self._c) % (2.0 * math.pi)
+        return wrap_2pi(math.atan2(self._s, self._c))
 
     def fresh(self, t: float, max_age: float) -> bool:
         return self.t is not None and t - self.t <= max_age
@@ -59,4 +61,4 @@ class HeadingTrack:
         m = self.smoothed()
         if m is None or self.latest is None:
             return False
-        return abs((self.latest - m + math.pi) % (2.0 * math.pi) - math.pi) <= math.radians(max_deg)
+        return abs(wrap_pi(m - self.latest)) <= math.radians(max_deg)

@@ -1,11 +1,26 @@
-"""Estimate kinds: one definition, and the docs, schemas and payloads agree with it."""
+"""Estimate kinds: each declared once, by its estimator's package, registered through
+entry points; the docs, schemas and payloads agree with it."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
-from edged.estimates import COMMON_FIELDS, DRAFT_MARKS, ESTIMATE_KINDS, estimate_to_json, kinds_markdown
+from importlib.metadata import EntryPoint
+
+import pytest
+from edged_draft.estimate import DRAFT_MARKS
+
+from edged import estimates
+from edged.estimates import (
+    COMMON_FIELDS,
+    ESTIMATE_KINDS,
+    EstimateKind,
+    est_field,
+    estimate_to_json,
+    kinds_markdown,
+    register_kind,
+)
 from edged.jsonpayload import record_json
 from edged.records import Estimate
 
@@ -72,3 +87,49 @@ def test_the_markdown_and_the_mcap_schemas_are_made_from_the_kinds():
         assert schema["required"] == ["t", "kind", "stale", "age", "converging"]
     marks = schema_dict("edged.est.draft")["properties"]["marks"]["properties"]
     assert set(marks) == set(DRAFT_MARKS) and "mean" in marks["aft_stbd"]["properties"]
+
+
+def test_the_kinds_come_from_the_estimators_packages_through_entry_points():
+    from edged_draft.estimate import DRAFT
+    from edged_manoeuvre.estimate import MANOEUVRE
+    from edged_stw.estimate import STW
+
+    assert {"stw", "manoeuvre", "draft"} <= set(ESTIMATE_KINDS)
+    assert ESTIMATE_KINDS["stw"] is STW and ESTIMATE_KINDS["manoeuvre"] is MANOEUVRE
+    assert ESTIMATE_KINDS["draft"] is DRAFT and DRAFT.marks == DRAFT_MARKS
+    # the name modules not yet moved import from the core still works
+    assert estimates.DRAFT_MARKS == DRAFT_MARKS
+    with pytest.raises(AttributeError):
+        estimates.NOT_A_NAME  # noqa: B018
+
+
+def test_kinds_load_lazily_skip_a_broken_one_and_may_be_registered_by_hand(monkeypatch, caplog):
+    good = EntryPoint("stw", "edged_stw.estimate:STW", estimates.KINDS_GROUP)
+    broken = EntryPoint("broken", "no_such_module_anywhere:KIND", estimates.KINDS_GROUP)
+    misnamed = EntryPoint("other", "edged_stw.estimate:STW", estimates.KINDS_GROUP)
+    calls = []
+
+    def fake(group: str) -> list[EntryPoint]:
+        calls.append(group)
+        return [good, broken, misnamed]
+
+    monkeypatch.setattr(estimates, "entry_points", fake)
+    kinds = estimates._Kinds()
+    assert calls == []  # nothing read before the first use
+    assert list(kinds) == ["stw"] and "broken" not in kinds and len(kinds) == 1
+    assert calls == [estimates.KINDS_GROUP]  # read once
+    assert "broken" in caplog.text and "other" in caplog.text
+    toy = EstimateKind("toy", "a test kind", (est_field("x", "m", "x"),))
+    kinds.register(toy)
+    assert kinds["toy"] is toy and list(kinds) == ["stw", "toy"] and calls == [estimates.KINDS_GROUP]
+
+
+def test_register_kind_adds_one_beside_the_installed_ones(monkeypatch):
+    from edged_mcap.schemas import _estimate_kind
+
+    monkeypatch.setattr(ESTIMATE_KINDS, "_registered", {})  # (restored after the test)
+    monkeypatch.setattr(ESTIMATE_KINDS, "_all", None)
+    toy = EstimateKind("toy_depth", "a test kind", (est_field("depth_min", "m", "shallowest"),))
+    register_kind(toy)
+    assert ESTIMATE_KINDS["toy_depth"] is toy and "stw" in ESTIMATE_KINDS
+    assert "depth_min" in _estimate_kind(toy)["properties"]

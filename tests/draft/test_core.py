@@ -278,3 +278,33 @@ def test_a_mark_stuck_at_one_value_is_counted_frozen_and_left_out():
     h = core.health()
     assert h["rejected"]["mid_port.frozen"] > 500 and h["marks"]["mid_port"]["why"] == "frozen"
     assert not out[-1].values["marks"]["mid_port"]["ok"]
+
+
+def test_health_has_the_shape_every_estimator_has_with_nis_per_mark():
+    """The shared keys (`edged.estimator.HEALTH_KEYS`): the NIS of each mark's sensor
+    (one dof), its gate rejections counted alike in `rejected` and `innovation`, a mark
+    restarted after a jump counted as a reset; `seen` per input."""
+    from edged.estimator import HEALTH_KEYS
+
+    hull = Hull(duration=150.0, faults={"aft_stbd": lambda t, v, s: (v + 1.0 if t > 60.0 else v, s)})
+    core = DraftCore(DraftConfig(type="draft", settle=20.0))
+    run(core, hull.measurements())
+    h = core.health()
+    assert HEALTH_KEYS <= set(h)
+    assert h["seen"] == {"depth": 0, "draft": 6 * 15000, "est/stw": 0}
+    assert set(h["innovation"]) == set(MARKS)
+    for mark, s in h["innovation"].items():
+        assert s["dof"] == 1 and s["gated"] == h["rejected"].get(f"{mark}.gate", 0)
+        if mark != "aft_stbd":
+            assert 0.8 < s["nis_mean"] < 1.3 and s["in_band_95"] > 0.85, (mark, s)
+    assert h["resets"] >= 1 and h["last_reset"].startswith("aft_stbd: ")
+
+
+def test_what_the_core_consumes_is_known_from_its_configuration_alone():
+    from edged_draft.plugin import DraftEstimator
+
+    assert DraftCore.consumes(DraftConfig(type="draft")) == {"draft", "depth", "est/stw"}
+    assert DraftCore.consumes(DraftConfig(type="draft", stw_from="stw_paper")) == {"draft", "depth", "est/stw_paper"}
+    assert DraftCore.consumes(DraftConfig(type="draft", stw_from=None)) == {"draft", "depth"}
+    assert DraftCore.ticks and DraftEstimator.Core is DraftCore
+    assert _core().inputs == {"draft", "depth"}

@@ -10,7 +10,8 @@ import pytest
 from scipy.linalg import expm
 
 from edged_draft.paper import PaperMark
-from edged_draft.waves import WaveBank, WaveMark, step_marks
+from edged_draft.bank import WaveBank
+from edged_draft.waves import WaveMark, step_marks
 
 
 def _van_loan(A: np.ndarray, Qc: np.ndarray, dt: float) -> np.ndarray:

@@ -248,3 +248,18 @@ def test_an_order_to_slow_down_between_30_s_fixes_is_followed_once_the_gnss_show
     # or where the IMU's noise hides it, by the joint reset
     noticed = c.model.ground.manoeuvres > 0 or "manoeuvre it missed" in (c.monitor.last_reset or "")
     assert noticed, (c.model.ground.manoeuvres, c.monitor.last_reset)
+
+
+def test_health_has_the_shape_every_estimator_has():
+    """The shared keys (`edged.estimator.HEALTH_KEYS`), `seen` listing every input,
+    then the STW core's own; what it consumes is known without making a core."""
+    from edged.estimator import HEALTH_KEYS
+    from edged_stw.plugin import StwEstimator
+
+    c = core()
+    run(c, Voyage(duration=300, seed=31, dvl=False).measurements())
+    h = c.health()
+    assert HEALTH_KEYS <= set(h) and {"mode", "missing", "dvl", "warnings"} <= set(h)
+    assert h["seen"]["water_speed"] == 0 and h["seen"]["position"] == 300 and len(h["seen"]) == 7
+    assert set(h["seen"]) == StwCore.consumes(c.cfg) == c.inputs
+    assert StwCore.ticks and StwEstimator.Core is StwCore
