@@ -219,16 +219,6 @@ def register_kind(kind: EstimateKind) -> None:
     ESTIMATE_KINDS.register(kind)  # type: ignore[attr-defined]
 
 
-def __getattr__(name: str) -> Any:
-    """`DRAFT_MARKS`, the draft kind's marks (none when no draft estimator is
-    installed), for the modules that still import it from here (it lives with the
-    draft estimator now: `edged_draft.estimate`; a kind's own are `EstimateKind.marks`)."""
-    if name == "DRAFT_MARKS":
-        draft = ESTIMATE_KINDS.get("draft")
-        return draft.marks if draft is not None else ()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def estimate_to_json(e: Estimate) -> dict[str, Any]:
     """The JSON object of an estimate, the same for every output (DESIGN §6, §7).
 

@@ -14,7 +14,7 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from edged.estimates import DRAFT_MARKS
+from edged.estimates import ESTIMATE_KINDS
 from edged.geo import LocalPlane
 
 from . import units as u
@@ -112,7 +112,8 @@ def draft_panel(snapshot: Mapping[str, Any], now: float) -> Panel:
         marks.add_column(col, no_wrap=True, justify="left" if col in ("mark", "sensor") else "right")
     all_marks = e.get("marks") or {}
     filled = set(e.get("filled") or [])
-    for mark in [*DRAFT_MARKS, *(m for m in all_marks if m not in DRAFT_MARKS)]:
+    known = ESTIMATE_KINDS["draft"].marks if "draft" in ESTIMATE_KINDS else ()
+    for mark in [*known, *(m for m in all_marks if m not in known)]:
         m = all_marks.get(mark) or {}
         if not m and not e:
             marks.add_row(mark, DASH, DASH, DASH, DASH)

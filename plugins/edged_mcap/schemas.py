@@ -12,7 +12,7 @@ import json
 from functools import cache
 from typing import Any
 
-from edged.estimates import COMMON_FIELDS, DRAFT_MARKS, ESTIMATE_KINDS, EstField, EstimateKind
+from edged.estimates import COMMON_FIELDS, ESTIMATE_KINDS, EstField, EstimateKind
 from edged.records import KINDS, Field, KindSpec
 
 __all__ = [
@@ -116,7 +116,7 @@ def _estimate_kind(kind: EstimateKind) -> dict[str, Any]:
     props = {f.name: _est_field(f) for f in COMMON_FIELDS + kind.fields}
     if kind.mark_fields:
         mark = {"type": "object", "properties": {f.name: _est_field(f) for f in kind.mark_fields}}
-        props["marks"] = {**props["marks"], "properties": {m: mark for m in DRAFT_MARKS}}
+        props["marks"] = {**props["marks"], "properties": {m: mark for m in kind.marks}}
     required = [f.name for f in COMMON_FIELDS]
     return _obj(f"edged.est.{kind.name}", kind.doc, props, required, extra=True)
 

@@ -8,7 +8,6 @@ from pathlib import Path
 
 from importlib.metadata import EntryPoint
 
-import pytest
 from edged_draft.estimate import DRAFT_MARKS
 
 from edged import estimates
@@ -97,10 +96,8 @@ def test_the_kinds_come_from_the_estimators_packages_through_entry_points():
     assert {"stw", "manoeuvre", "draft"} <= set(ESTIMATE_KINDS)
     assert ESTIMATE_KINDS["stw"] is STW and ESTIMATE_KINDS["manoeuvre"] is MANOEUVRE
     assert ESTIMATE_KINDS["draft"] is DRAFT and DRAFT.marks == DRAFT_MARKS
-    # the name modules not yet moved import from the core still works
-    assert estimates.DRAFT_MARKS == DRAFT_MARKS
-    with pytest.raises(AttributeError):
-        estimates.NOT_A_NAME  # noqa: B018
+    # the core names no estimator's marks: they are the kind's
+    assert not hasattr(estimates, "DRAFT_MARKS")
 
 
 def test_kinds_load_lazily_skip_a_broken_one_and_may_be_registered_by_hand(monkeypatch, caplog):
