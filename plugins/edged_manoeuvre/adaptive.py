@@ -20,7 +20,7 @@ H P⁺ Hᵀ = R − R S⁻¹ R, so each R_ii is an exponentially weighted mean o
 (R S⁻¹ y)_i² + (R − R S⁻¹ R)_ii over about `samples` updates. Unlike matching the
 innovations (y² − H P⁻ Hᵀ), no term is subtracted: an overstated P cannot drive R
 to zero and the filter into overconfidence. Kept between a physical floor (no
-GNSS is better than 5 cm, no gyro than 0.001°/s: `core.SIGMA_FLOOR`) and 25 × the
+GNSS is better than 5 cm, no gyro than 0.001°/s: `update.SIGMA_FLOOR`) and 25 × the
 configured variance. Frozen while QScale is raised: a manoeuvre is not sensor noise.
 """
 

@@ -20,15 +20,20 @@ holds the two to 1e-12.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
+from .cmm import Cmm
+from .ctra import Ctra
+from .filter import KalmanFilter
 from .model import KINDS, PSI, Innovation, _eye, inv_small, judge, reset_position, residual, transition, wrap_2pi
 
 
-class Ekf:
-    name = "ekf"
+class Ekf(KalmanFilter):
+    name: ClassVar[str] = "ekf"
 
-    def __init__(self, model, x0: np.ndarray, P0: np.ndarray, substep: float) -> None:
+    def __init__(self, model: Ctra | Cmm, x0: np.ndarray, P0: np.ndarray, substep: float) -> None:
         self.model = model
         self.x = np.array(x0, dtype=float)
         self.P = np.array(P0, dtype=float)

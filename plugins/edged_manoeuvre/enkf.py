@@ -17,15 +17,20 @@ seeded generator: the same log gives the same estimates.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
+from .cmm import Cmm
+from .ctra import Ctra
+from .filter import KalmanFilter
 from .model import KINDS, PSI, Innovation, circular_mean, judge, residual, rk4, wrap_2pi, wrap_pi
 
 
-class Enkf:
-    name = "enkf"
+class Enkf(KalmanFilter):
+    name: ClassVar[str] = "enkf"
 
-    def __init__(self, model, x0: np.ndarray, P0: np.ndarray, substep: float, members: int = 100,
+    def __init__(self, model: Ctra | Cmm, x0: np.ndarray, P0: np.ndarray, substep: float, members: int = 100,
                  seed: int = 0, inflation: float = 1.0) -> None:
         self.model = model
         self.substep = substep

@@ -15,9 +15,14 @@ work on arrays of states). Before each update the sigma points are drawn afresh 
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unscented_transform
 
+from .cmm import Cmm
+from .ctra import Ctra
+from .filter import KalmanFilter
 from .model import KINDS, PSI, Innovation, circular_mean, judge, reset_position, residual, rk4, wrap_2pi, wrap_pi
 
 
@@ -41,10 +46,10 @@ class _Ukf(UnscentedKalmanFilter):
         self.sigmas_f = self.fx(sigmas, dt) if dt > 0 else sigmas.copy()
 
 
-class Ukf:
-    name = "ukf"
+class Ukf(KalmanFilter):
+    name: ClassVar[str] = "ukf"
 
-    def __init__(self, model, x0: np.ndarray, P0: np.ndarray, substep: float, lam: float = 1.72) -> None:
+    def __init__(self, model: Ctra | Cmm, x0: np.ndarray, P0: np.ndarray, substep: float, lam: float = 1.72) -> None:
         self.model = model
         n = model.n
         points = MerweScaledSigmaPoints(n, alpha=1.0, beta=2.0, kappa=lam, subtract=residual_x)

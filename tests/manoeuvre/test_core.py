@@ -14,8 +14,9 @@ from edged.estimates import ESTIMATE_KINDS
 from edged.geo import LocalPlane
 from edged.records import Estimate, Measurement
 from edged_manoeuvre.config import ManoeuvreConfig
-from edged_manoeuvre.core import SPARSE_FIX, ManoeuvreCore
+from edged_manoeuvre.core import ManoeuvreCore
 from edged_manoeuvre.predict import ellipse
+from edged_manoeuvre.update import SPARSE_FIX
 
 STRAIGHT = Manoeuvre(duration=90.0, heading_deg=30.0)
 
@@ -744,15 +745,15 @@ def test_the_prediction_does_not_carry_the_waves_yaw_noise_minutes_ahead(q_yaw_j
     core = _core(q_yaw_jerk=q_yaw_jerk)
     i = core.model.yaw.index
     assert i is not None  # the tuned default has the yaw acceleration state
-    n = core.Qc.shape[0]
+    n = core.process.Qc.shape[0]
     x = np.zeros(n)
     x[2] = 5.0  # 5 m/s north
     P = np.eye(n) * 1e-6  # (the turn rate known to 0.06 °/s)
     P[i, i] = 0.5  # a wave's yaw acceleration, uncertain
-    Qc = core.Qc.copy()
+    Qc = core.process.Qc.copy()
     Qc[i, i] = q_yaw_jerk
-    runs = core.predictor.run(x, P, Qc)
-    rows = core.predictor.predicted(runs, lambda n_, e_: (57.6 + n_ / 111_000.0, 11.5))
+    runs = core.forecast.predictor.run(x, P, Qc)
+    rows = core.forecast.predictor.predicted(runs, lambda n_, e_: (57.6 + n_ / 111_000.0, 11.5))
     majors = {r["dt"]: r["std_major"] for r in rows}
     assert majors[120.0] < 1000.0, majors  # metres, not the 10⁸ of before
     assert runs[-1][2][PSI, PSI] < 1.0  # the heading's variance stays below a radian²
