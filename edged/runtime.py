@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections import deque
 from typing import Any
 
 from .clock import Clock
 from .config import Config, ConfigError
 from .health import ComponentHealth, HealthRegistry
-from .outputproc import OutputProcessDied, ProcessOutput
-from .plugin import InputPlugin, OutputPlugin, PluginContext
+from .outputhost import OutputHost
+from .plugin import InputPlugin, PluginContext
 from .records import HealthRecord
 from .registry import Registry
 from .router import Router
@@ -36,11 +35,6 @@ log = logging.getLogger("edged.runtime")
 #: Failures in a row after which a replay's worker gives up (its inputs then counted as
 #: dropped, the replay exits 1): a core that fails on every record must not hold it.
 REPLAY_GIVE_UP = 20
-#: Records per message to an output's process: large enough that the exchange's own
-#: cost is small beside the records', small beside a pipe's buffer many times over.
-PROCESS_BATCH = 4096
-#: Batches on their way to an output's process at once.
-PROCESS_DEPTH = 4
 
 
 class PluginBuildError(RuntimeError):
@@ -55,154 +49,6 @@ class InputHost:
 
     async def run(self) -> None:
         await self.plugin.run()
-
-
-class OutputHost:
-    """Runs one output behind its queue. With `worker = "process"` the plugin runs in a
-    process of its own and `plugin` is its `ProcessOutput` (the same contract)."""
-
-    def __init__(self, name: str, plugin: OutputPlugin, router: Router, health: ComponentHealth,
-                 clock: Clock | None = None) -> None:
-        self.name = name
-        self.plugin: Any = plugin
-        if getattr(plugin.config, "worker", "loop") == "process":
-            why = ProcessOutput.cannot_run(plugin)
-            if why is None:
-                self.plugin = ProcessOutput(plugin, name, health, clock or plugin.ctx.clock)
-            else:
-                log.warning("event=output-in-loop output=%s reason=%r", name, f"cannot run in a process: {why}")
-                health.info["worker"] = "loop"
-        self.health = health
-        self.opened = False
-        self._progress: asyncio.Future[None] | None = None
-        #: A process output waiting for room for its next batch (see `_run_process`).
-        self.blocked = False
-        keys = plugin.keys
-        self.sub = router.subscribe(
-            f"output:{name}",
-            keys,
-            exclude=plugin.exclude_keys,
-            maxsize=int(getattr(plugin.config, "queue_size", 100_000)),
-            health=health,
-            preferred_only=False,
-            reorder_window=None,
-        )
-
-    async def run(self) -> None:
-        await self.plugin.open()
-        self.opened = True
-        get = self.sub.queue.get_batch
-        if isinstance(self.plugin, ProcessOutput):
-            await self._run_process(self.plugin)
-        write = self.plugin.write
-        while True:
-            batch = await get()
-            self._progressed()
-            write(batch)
-            self.health.count("written", len(batch))
-
-    async def _run_process(self, proc: ProcessOutput) -> None:
-        """Up to PROCESS_DEPTH batches on their way: the next is taken (and pickled)
-        while the child writes the last. The host takes what is queued at the same
-        moments as in the loop (with the clock as it then reads), so each batch is
-        written as the loop placement would have written it; while it waits for
-        room, `blocked` tells a replay to wait. A write that failed (the process
-        died) wakes the host at once, not at the next record: its run ends and the
-        supervisor starts a new process."""
-        queue = self.sub.queue
-        get = queue.get_batch
-        clock = proc.clock
-        count = self.health.count
-        inflight: deque[tuple[asyncio.Future[Any], int]] = deque()
-
-        def done(fut: asyncio.Future[Any]) -> None:
-            if fut.cancelled() or fut.exception() is not None:
-                queue.wake()
-
-        while True:
-            while inflight and inflight[0][0].done():
-                self._settle(proc, inflight)
-            if len(inflight) >= PROCESS_DEPTH:
-                self.blocked = True
-                try:
-                    await asyncio.wait([inflight[0][0]])
-                finally:
-                    self.blocked = False
-                self._progressed()
-                continue
-            batch = await get(PROCESS_BATCH)
-            if not batch:
-                continue  # woken: a write failed
-            self._progressed()
-            count("written", len(batch))
-            fut = proc.write_future(batch, clock.now(), clock.monotonic())
-            fut.add_done_callback(done)
-            inflight.append((fut, len(batch)))
-
-    def _settle(self, proc: ProcessOutput, inflight: deque[tuple[asyncio.Future[Any], int]]) -> None:
-        """The oldest write is done: forget it, or raise what it failed with (every
-        batch still on its way is then lost with it, and counted)."""
-        fut, _ = inflight[0]
-        exc = fut.exception()
-        if exc is None:
-            inflight.popleft()
-            self._progressed()
-            return
-        lost = sum(n for _, n in inflight)
-        for f, _ in inflight:  # their failures are this one's
-            f.add_done_callback(lambda f: f.cancelled() or f.exception())
-        inflight.clear()
-        if isinstance(exc, OutputProcessDied):
-            self.health.count("dropped.process_died", proc.lost_at_death(lost))
-            raise exc
-        raise proc.failure(exc) from None
-
-    def progress(self) -> "asyncio.Future[None]":
-        """Done when the output next takes a batch from its queue (replay waits on it
-        rather than polling the loop, which would hold the GIL a process output's
-        helper thread needs)."""
-        if self._progress is None or self._progress.done():
-            self._progress = asyncio.get_running_loop().create_future()
-        return self._progress
-
-    def _progressed(self) -> None:
-        p = self._progress
-        if p is not None and not p.done():
-            p.set_result(None)
-
-    async def close(self) -> None:
-        if self.opened:
-            self.opened = False
-            await self.plugin.close()
-        elif isinstance(self.plugin, ProcessOutput):
-            await self.plugin.close()  # (a process that started but failed to open)
-
-    def flush(self) -> None:
-        if self.opened:
-            try:
-                self.plugin.flush()
-            except Exception as exc:
-                self.health.error(f"flush: {type(exc).__name__}: {exc}")
-
-    async def drain_and_close(self) -> None:
-        p = self.plugin
-        if not self.opened and isinstance(p, ProcessOutput) and p.opening is not None:
-            try:  # stopped while its process was starting: it takes the queue once up
-                await p.opening
-                self.opened = True
-            except Exception as exc:
-                self.health.error(f"open: {type(exc).__name__}: {exc}")
-        if self.opened:
-            rest = self.sub.queue.drain_nowait()
-            if rest:
-                try:
-                    self.plugin.write(rest)
-                    self.health.count("written", len(rest))
-                except Exception as exc:
-                    self.health.count("dropped.final_write", len(rest))
-                    self.health.error(f"final write: {type(exc).__name__}: {exc}")
-            self.flush()
-        await self.close()
 
 
 class Runtime:
@@ -448,8 +294,7 @@ class Runtime:
                 await asyncio.wait_for(out.drain_and_close(), timeout)
             except (asyncio.TimeoutError, Exception) as exc:
                 out.health.error(f"close: {type(exc).__name__}: {exc}")
-                if isinstance(out.plugin, ProcessOutput):
-                    out.plugin.kill_now()  # (its process must not outlive the daemon)
+                out.plugin.kill_now()  # (a process must not outlive the daemon)
             out.health.set_state("stopped")
         self._tasks.clear()
 

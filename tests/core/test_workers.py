@@ -385,7 +385,7 @@ async def test_a_process_core_failing_after_the_first_message_of_a_batch_loses_o
     """A batch to a process goes as messages of CHUNK_PROCESS calls, the next sent before
     the last one's answer: a failure in the second keeps the first's results and the
     calls before it in the second, and counts the rest."""
-    from edged.workers import CHUNK_PROCESS
+    from edged.workerproc import CHUNK_PROCESS
 
     n, bad = 2 * CHUNK_PROCESS + 88, CHUNK_PROCESS + 44
     rt = _runtime(registry, {"estimators": {"s": {"type": "sum", "fail_on": 13.0, "stale_after": 0.0,
@@ -400,15 +400,16 @@ async def test_a_process_core_failing_after_the_first_message_of_a_batch_loses_o
     assert h.counters["steps"] == bad and h.counters["dropped.core_failure"] == n - bad
 
 
-def test_a_batch_that_waited_its_turn_behind_a_killed_process_fails_cleanly():
+async def test_a_batch_that_waited_its_turn_behind_a_killed_process_fails_cleanly(registry):
     """After a failure the runner's process is killed; a batch already queued behind
     the failing one then reaches no pipe: it fails as a core failure (counted lost by
     the host), not with an AttributeError on a closed connection."""
-    from edged.workers import CoreFailed, ProcessRunner
+    from edged.workerproc import CoreFailed
 
-    runner = ProcessRunner(None, "x", watchdog=1.0)  # never started, or killed: no pipe
+    rt = _runtime(registry, {"estimators": {"m": {"type": "mean", "worker": "process"}}})
+    runner = rt.workers[0].runner  # never started, or killed: no pipe
     with pytest.raises(CoreFailed, match="process is gone"):
-        runner._exchange([("tick", 1.0)])
+        await runner.call([("tick", 1.0)])
     runner.close()
 
 
