@@ -75,3 +75,12 @@ def north_east(lat: Any, lon: Any, lat0: Any, lon0: Any) -> tuple[np.ndarray, np
     north = np.radians(np.asarray(lat) - lat0) * EARTH_RADIUS
     east = np.radians(dlon) * EARTH_RADIUS * np.cos(np.radians(lat0))
     return north, east
+
+
+def haversine(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """The great-circle distance in metres between two points (degrees) on the mean
+    sphere: the distance run between two fixes (the STW paper's distance state)."""
+    p1, p2 = math.radians(lat1), math.radians(lat2)
+    dp, dl = p2 - p1, math.radians(lon2 - lon1)
+    h = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
+    return 2.0 * EARTH_RADIUS * math.asin(min(1.0, math.sqrt(h)))

@@ -15,13 +15,14 @@ from collections import Counter, deque
 from typing import Any
 
 from edged.estimator import Estimator, handles
+from edged.geo import haversine
 from edged.records import Estimate, Measurement
 from edged.units import finite_numbers as _finite
 
 from .config import StwConfig
 from .logcheck import LogCheck
 from .motion import Motion
-from .paper import PaperModel, haversine
+from .paper import PaperModel
 from .vector import VectorModel
 from .watch import NisWatch
 

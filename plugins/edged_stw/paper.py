@@ -28,6 +28,8 @@ import math
 import numpy as np
 from filterpy.kalman import predict as kf_predict
 
+from edged.geo import haversine
+
 from .dvl import LogCalibration
 from .gating import innovation, update
 
@@ -221,10 +223,3 @@ class PaperModel:
         if self.log is not None:
             out.update(self.log.values())
         return out
-
-
-def haversine(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    dp, dl = p2 - p1, math.radians(lon2 - lon1)
-    h = math.sin(dp / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(dl / 2) ** 2
-    return 2.0 * 6371008.8 * math.asin(min(1.0, math.sqrt(h)))
