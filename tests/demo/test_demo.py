@@ -12,8 +12,10 @@ from edged_demo.command import main
 
 
 def test_demo_reads_both_inputs_and_records(tmp_path):
+    # 6 s: the manoeuvre filter starts from 3 s of fixes (its init_window), and a 3-s
+    # demo on a loaded machine could end before its first estimate.
     args = build_parser().parse_args(
-        ["demo", "--duration", "3", "--no-zenoh", "--record-dir", str(tmp_path / "rec")]
+        ["demo", "--duration", "6", "--no-zenoh", "--record-dir", str(tmp_path / "rec")]
     )
     out = io.StringIO()
     assert main(args, out=out) == 0
