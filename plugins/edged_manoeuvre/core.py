@@ -4,7 +4,8 @@ The sensors: `position` (lat, lon → the local tangent plane), `heading`, `yaw_
 `accel_body` (ax, ay: the accelerometers, Coriolis terms included), `velocity_ground`
 (the GNSS's SOG/COG). `current` measurements, or an `stw` estimator's `est/<name>`,
 give the drift angle through the water (seed 001). One handler per input kind
-(`_on_<kind>`), dispatched in `step`.
+(`@handles`, the contract of `edged.estimator.Estimator`); every measurement first
+passes the gap check (`step`).
 
 Where the rest is: the start (`start.py`), one measurement through the filter
 (`update.py`), the filter itself behind one interface (`filter.py`), the process
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from edged.geo import LocalPlane
-from edged.innovation import InnovationMonitor
+from edged.estimator import ESTIMATES, Estimator, handles
 from edged.records import Estimate, Measurement
 from edged.units import finite_numbers as _finite
 
@@ -66,12 +67,20 @@ DISAGREE_FLOOR = {
 RESTART_SPAN = 20.0
 
 
-class ManoeuvreCore(UpdateSteps):
+class ManoeuvreCore(UpdateSteps, Estimator):
     """The estimator the worker host drives: `step` per input record, `tick` on the
     publish grid, `health` for its worker's report."""
 
+    #: NIS statistics over the last 200 updates of a kind (10 Hz inputs: 20 s).
+    nis_window = 200
+
+    @classmethod
+    def upstream(cls, config: ManoeuvreConfig) -> tuple[str, ...]:
+        """The stw instance whose current gives the drift through the water."""
+        return (config.current_from,) if config.current_from else ()
+
     def __init__(self, cfg: ManoeuvreConfig, *, init_rng: np.random.Generator | None = None) -> None:
-        self.cfg = cfg
+        super().__init__(cfg)
         tau = float(cfg.yaw_accel_tau or 0.0)
         self.model: Ctra | Cmm = Ctra(bool(cfg.imu_bias), tau) if cfg.model == "ctra" else Cmm(bool(cfg.imu_bias), tau)
         self.process = ProcessNoise(cfg, self.model)
@@ -82,11 +91,6 @@ class ManoeuvreCore(UpdateSteps):
             "accel": np.full(2, float(cfg.accel_sigma)),
             "velocity": np.full(2, float(cfg.velocity_sigma)),
         }
-        self.inputs = frozenset({"position", "heading", "yaw_rate", "accel_body", "current", "velocity_ground"}
-                                | ({f"est/{cfg.current_from}"} if cfg.current_from else set()))
-        self._dispatch = {"position": self._on_position, "heading": self._on_heading, "yaw_rate": self._on_yaw_rate,
-                          "accel_body": self._on_accel_body, "velocity_ground": self._on_velocity_ground,
-                          "current": self._on_current}
         self.filter: KalmanFilter | None = None
         self.t: float | None = None  # the filter's time: its newest measurement's
         self._published_t: float | None = None  # the time of the last state `tick` published
@@ -117,11 +121,8 @@ class ManoeuvreCore(UpdateSteps):
         self.trace: list[tuple[float, str, float, int, bool, np.ndarray]] | None = None
 
     def _init_counts(self) -> None:
-        """What health counts and reports."""
-        self.monitor = InnovationMonitor(window=200)
+        """What health counts and reports beyond the shared counts (`Estimator`)."""
         self.muted: Counter[str] = Counter()
-        self.seen: Counter[str] = Counter()
-        self.rejected: Counter[str] = Counter()
         self.resets: Counter[str] = Counter()
         self.divergences = 0
         self._since_start: Counter[str] = Counter()  # updates applied since the start
@@ -130,32 +131,30 @@ class ManoeuvreCore(UpdateSteps):
 
     # ------------------------------------------------------------------ inputs
     def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        if isinstance(rec, Estimate):
-            if rec.name == self.cfg.current_from:
-                self._on_stw(rec)
-            return []
-        self.seen[rec.kind] += 1
-        self._gap(rec.t)
-        handler = self._dispatch.get(rec.kind)
-        if handler is not None:
-            handler(rec)
-        return []
+        """Every measurement first tells the gap check its time; then its handler."""
+        if not isinstance(rec, Estimate):
+            self._gap(rec.t)
+        return super().step(rec)
 
+    @handles("heading")
     def _on_heading(self, rec: Measurement) -> None:
         psi = rec.values.get("heading")
         if _finite(psi):
             self._measure("heading", rec.t, np.array([float(psi)]), rec.source)
 
+    @handles("yaw_rate")
     def _on_yaw_rate(self, rec: Measurement) -> None:
         r = rec.values.get("r")
         if _finite(r):
             self._measure("yaw_rate", rec.t, np.array([float(r)]), rec.source)
 
+    @handles("accel_body")
     def _on_accel_body(self, rec: Measurement) -> None:
         ax, ay = rec.values.get("ax"), rec.values.get("ay")
         if _finite(ax, ay):
             self._measure("accel", rec.t, np.array([float(ax), float(ay)]), rec.source)
 
+    @handles("velocity_ground")
     def _on_velocity_ground(self, rec: Measurement) -> None:
         """The GNSS's own SOG/COG: one receiver's (the first heard, or the one speaking
         when it has been silent VG_MAX_AGE s), checked against the estimate, an update
@@ -176,16 +175,19 @@ class ManoeuvreCore(UpdateSteps):
                 self._measure("velocity", t, np.array([self._vg[1], self._vg[2]]), rec.source)
             self._start_if_slow(t)  # a slow receiver's SOG/COG, just after its fix
 
+    @handles("current")
     def _on_current(self, rec: Measurement) -> None:
         set_, drift = rec.values.get("set"), rec.values.get("drift")
         if _finite(set_, drift):
             self._current = (rec.t, float(drift) * math.cos(set_), float(drift) * math.sin(set_))
 
+    @handles(ESTIMATES)
     def _on_stw(self, e: Estimate) -> None:
         c, set_ = e.values.get("current"), e.values.get("current_set")
         if _finite(c, set_):
             self._current = (e.t, float(c) * math.cos(set_), float(c) * math.sin(set_))
 
+    @handles("position")
     def _on_position(self, rec: Measurement) -> None:
         t, v, source, t_src = rec.t, rec.values, rec.source, rec.t_src
         lat, lon = v.get("lat"), v.get("lon")
@@ -225,7 +227,7 @@ class ManoeuvreCore(UpdateSteps):
         if last is not None and t - last > self.cfg.reset_after:
             if self.filter is not None or self.start.fixes:
                 self.resets["gap"] += 1
-                self.monitor.reset(f"a gap of {t - last:.0f} s in every input", t)
+                self.reset(f"a gap of {t - last:.0f} s in every input", t)
                 self._start_again()
             self.start.heading = self.start.rate = None
 
@@ -263,7 +265,7 @@ class ManoeuvreCore(UpdateSteps):
         for d in self.copies.take_new():
             self.resets[f"{d.kind}.sources_disagree"] += 1
             if self.filter is not None:
-                self.monitor.reset(f"{d.kind}: {d.first} and {d.second} disagree, {d.kept} kept", self.t)
+                self.reset(f"{d.kind}: {d.first} and {d.second} disagree, {d.kept} kept", self.t)
                 self._start_again()
 
     # ------------------------------------------------------------------ start
@@ -316,7 +318,7 @@ class ManoeuvreCore(UpdateSteps):
     def _diverged(self, why: str) -> None:
         self.divergences += 1
         self.resets["diverged"] += 1
-        self.monitor.reset(why, self.t)
+        self.reset(why, self.t)
         self._start_again()
 
     def _start_again(self) -> None:
@@ -417,18 +419,14 @@ class ManoeuvreCore(UpdateSteps):
                        f"{d.kept} kept ({d.why})")
         return out + nis_problems(self.monitor.snapshot())
 
-    def health(self) -> dict[str, Any]:
-        out = self.monitor.snapshot()
-        seen = {k: self.seen.get(k, 0) for k in ("position", "heading", "yaw_rate", "accel_body", "current")}
-        out["seen"] = seen
-        out["missing"] = missing(seen)
+    def details(self) -> dict[str, Any]:
+        """Its own health keys, after the shared ones (`Estimator.health`)."""
+        out: dict[str, Any] = {"missing": missing(self.seen)}
         out["running"] = self.filter is not None
         out["model"], out["filter"], out["mode"] = self.model.name, self.cfg.filter, self.cfg.mode
         out["divergences"] = self.divergences
-        out["rejected"] = dict(sorted(self.rejected.items()))
         out["events"] = dict(sorted(self.resets.items()))
         out["duplicates"] = self.copies.duplicates()
-        out["problems"] = self.problems()
         out["muted"] = dict(sorted(self.muted.items()))
         qscales = self.process.qscales
         out["q_scale"] = self.process.scales()

@@ -12,14 +12,12 @@ from .core import ManoeuvreCore
 
 class ManoeuvreEstimator(EstimatorPlugin):
     Config = ManoeuvreConfig
+    Core = ManoeuvreCore
     kind: ClassVar[str | None] = "manoeuvre"
     description: ClassVar[str] = (
         "manoeuvring state u, v, r, heading, accelerations, drift and prediction: CTRA/CMM with EKF/UKF/EnKF "
         "(seeds 002, 001, 004)"
     )
-
-    def make_core(self) -> ManoeuvreCore:
-        return ManoeuvreCore(self.config)
 
     def status(self) -> dict[str, Any]:
         c = self.config

@@ -29,7 +29,6 @@ from .model import KINDS, R, Innovation, residual
 
 if TYPE_CHECKING:
     from edged.geo import LocalPlane
-    from edged.innovation import InnovationMonitor
 
     from .cmm import Cmm
     from .config import ManoeuvreConfig
@@ -86,7 +85,6 @@ class UpdateSteps:
     noise: dict[tuple[str, str], NoiseEstimate]
     roughness: dict[tuple[str, str], Roughness]
     gates: dict[tuple[str, str], Gate]
-    monitor: InnovationMonitor
     rejected: Counter[str]
     resets: Counter[str]
     trace: list[tuple[float, str, float, int, bool, np.ndarray]] | None
@@ -114,7 +112,7 @@ class UpdateSteps:
             return
         if dt > self.cfg.reset_after:  # the filter's sensors were silent (only a current spoke)
             self.resets["gap"] += 1
-            self.monitor.reset(f"no {'/'.join(KINDS)} for {dt:.0f} s", t)
+            self.reset(f"no {'/'.join(KINDS)} for {dt:.0f} s", t)
             self._start_again()
             return
         key = (kind, source)
@@ -194,7 +192,7 @@ class UpdateSteps:
             if adapt_q:
                 for q in self.process.driven_by(kind, t):
                     q.bump(10.0)
-        self.monitor.update(kind, inn.nis, dof)
+        self.updated(kind, inn.nis, dof)
         self._since_start[kind] += 1
         self.wave.add(t, float(f.x[R]))
         driven = self.process.driven_by(kind, t)
@@ -208,8 +206,7 @@ class UpdateSteps:
                limit: float | None, gate: Gate) -> None:
         """A measurement its gate kept out."""
         dof = KINDS[kind].dim
-        self.monitor.gated(kind)
-        self.rejected[f"{kind}.gate"] += 1
+        self.gated(kind)
         if self.cfg.adapt_q and limit is not None:
             # a gated measurement still says the model is off: counted, at most at
             # twice the gate, so that one outlier cannot move Q much
