@@ -34,9 +34,8 @@ def _content(path: Path) -> dict[str, list[tuple[int, bytes]]]:
 def test_replaying_a_recording_reproduces_it(tmp_path, plugin, log):
     src = DATA / log
     if not src.is_file():
-        pytest.skip(f"{src} not present")
-    if not entry_points(group="edged.inputs", name=plugin):
-        pytest.skip(f"input plugin {plugin} not installed")
+        pytest.skip(f"../shared data not here: {src} not found")
+    assert entry_points(group="edged.inputs", name=plugin), f"first-party input plugin {plugin} not installed"
     first, second = tmp_path / "a.mcap", tmp_path / "b.mcap"
     assert cli(["replay", str(src), "--record", str(first), "--no-zenoh", "--no-progress"]) == 0
     assert cli(["replay", str(first), "--record", str(second), "--no-zenoh", "--no-progress"]) == 0
