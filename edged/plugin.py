@@ -46,7 +46,6 @@ __all__ = [
     "Plugin",
     "Decoder",
     "InputPlugin",
-    "EstimatorCore",
     "EstimatorPlugin",
     "OutputPlugin",
     "ReplayOptions",
@@ -275,11 +274,6 @@ class LogReader(Protocol):
         ...
 
 
-#: The core an estimator plugin makes: a subclass of `edged.estimator.Estimator`
-#: (its handlers per measurement kind, `tick`, its health).
-EstimatorCore = Estimator
-
-
 class EstimatorPlugin(Plugin):
     """An estimator: its configuration, the core class it runs and the estimate kind
     it publishes. The worker host (`edged.workers`) hosts its core."""
@@ -293,7 +287,10 @@ class EstimatorPlugin(Plugin):
     #: the configuration, without making a core.
     Core: ClassVar[type[Estimator] | None] = None
 
-    def _core_class(self) -> type[Estimator]:
+    def core_class(self) -> type[Estimator]:
+        """The core's class under this configuration: `Core`. A plugin whose
+        configuration chooses between core classes (one with its own `tick`, one
+        without) overrides this; `inputs`, `ticks` and `make_core` ask it."""
         if self.Core is None:
             raise TypeError(f"{type(self).__name__} names no Core (an edged.estimator.Estimator subclass)")
         return self.Core
@@ -301,17 +298,17 @@ class EstimatorPlugin(Plugin):
     def inputs(self) -> frozenset[str]:
         """The route keys its core consumes under this configuration (measurement
         kinds, `est/<name>` of the instances it reads)."""
-        return self._core_class().consumes(self.config)
+        return self.core_class().consumes(self.config)
 
     def ticks(self) -> bool:
         """Whether its core computes estimates at the ticks (`Estimator.tick`)."""
-        return self._core_class().ticks
+        return self.core_class().ticks
 
     def make_core(self) -> Estimator:
         """A fresh core; called at start and after every failure (in the worker's
         process when it runs in one: the core need not be picklable, the plugin's
         class and configuration must be)."""
-        return self._core_class()(self.config)
+        return self.core_class()(self.config)
 
 
 class OutputPlugin(Plugin):

@@ -18,6 +18,7 @@ from typing import Any
 
 from .childmain import CallFailed
 from .childproc import ChildDied, ChildProcess, forget
+from .estimator import Estimator
 from .health import ComponentHealth
 from .plugin import EstimatorPlugin, PluginContext
 from .signals import StopRequested, step as core_step
@@ -49,30 +50,20 @@ class CoreFailed(RuntimeError):
         self.results = results
 
 
-def core_health(core: Any) -> dict[str, Any] | None:
-    """The core's own health (`health()`), or None when it has none or it fails."""
-    fn = getattr(core, "health", None)
-    if not callable(fn):
-        return None
+def core_health(core: Estimator) -> dict[str, Any]:
+    """The core's health (`Estimator.health`); a report that fails says why instead."""
     try:
-        h = fn()
+        return core.health()
     except Exception as exc:  # a core's report must not take its worker down
         return {"health_error": f"{type(exc).__name__}: {exc}"}
-    return h if isinstance(h, dict) else None
 
 
-def run_calls(core: Any, calls: list[Call], results: list[list[Any]]) -> None:
+def run_calls(core: Estimator, calls: list[Call], results: list[list[Any]]) -> None:
     """Run `calls` in order, appending each one's estimates to `results` (so that a
     call that raises leaves the results of the ones before it)."""
-    step = core.step
-    tick = getattr(core, "tick", None)
+    step, tick = core.step, core.tick
     for what, arg in calls:
-        if what == "step":
-            results.append(list(step(arg)))
-        elif tick is not None:
-            results.append(list(tick(arg)))
-        else:
-            results.append([])
+        results.append(list(step(arg) if what == "step" else tick(arg)))
 
 
 class LoopRunner:
@@ -84,7 +75,7 @@ class LoopRunner:
 
     def __init__(self, plugin: EstimatorPlugin) -> None:
         self.plugin = plugin
-        self.core: Any = plugin.make_core()
+        self.core: Estimator | None = plugin.make_core()
         self.health_report: dict[str, Any] | None = None
 
     async def start(self) -> None:
@@ -94,6 +85,7 @@ class LoopRunner:
     async def call(self, calls: list[Call]) -> list[list[Any]]:
         results: list[list[Any]] = []
         try:
+            assert self.core is not None, "called before start()"
             with core_step():
                 run_calls(self.core, calls, results)
         except Exception as exc:
@@ -125,7 +117,7 @@ class LoopRunner:
 class _CoreServant:
     """(in the child) The core, made there; a batch of calls per message."""
 
-    def __init__(self, core: Any) -> None:
+    def __init__(self, core: Estimator) -> None:
         self.core = core
 
     def call(self, what: str, arg: Any) -> list[list[Any]]:

@@ -63,15 +63,11 @@ class WorkerHost:
         self.router = router
         self.health = health
         cfg = plugin.config
-        self.runner: LoopRunner | ProcessRunner
-        if cfg.worker == "process":
-            self.runner = ProcessRunner(plugin, name, cfg.watchdog)
-            probe = plugin.make_core()  # what it consumes and whether it ticks
-        else:
-            self.runner = LoopRunner(plugin)
-            probe = self.runner.core
-        self.inputs: frozenset[str] = frozenset(probe.inputs)
-        ticks_core = callable(getattr(probe, "tick", None))
+        self.runner: LoopRunner | ProcessRunner = (
+            ProcessRunner(plugin, name, cfg.watchdog) if cfg.worker == "process" else LoopRunner(plugin))
+        # What the core consumes and whether it ticks: from its class and the
+        # configuration (no core is made here for a process worker).
+        self.inputs: frozenset[str] = plugin.inputs()
         sources = cfg.sources
         if sources is not None:  # upstream estimates and health beacons pass the filter
             sources = set(sources) | {k[4:] for k in self.inputs if k.startswith("est/")} | {HealthRecord.source}
@@ -81,7 +77,7 @@ class WorkerHost:
         )
         self.order = InputOrder(router, self.sub.queue)
         self.plan = CallPlan(health, cfg.reorder_window, cfg.publish_rate,
-                             cfg.publish_rate > 0 or cfg.stale_after > 0 or ticks_core)
+                             cfg.publish_rate > 0 or cfg.stale_after > 0 or plugin.ticks())
         self.out = Publication(name, plugin.kind, router, health, cfg.publish_rate, cfg.stale_after)
         self.task: asyncio.Task[None] | None = None
         self._inflight: collections.deque[Batch] = collections.deque()

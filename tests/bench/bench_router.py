@@ -14,6 +14,7 @@ import sys
 import time
 
 from edged.clock import ManualClock
+from edged.estimator import Estimator, handles
 from edged.health import ComponentHealth
 from edged.plugin import EstimatorConfig, EstimatorPlugin
 from edged.records import KINDS, Measurement
@@ -26,18 +27,19 @@ def _measurements(n: int) -> list[Measurement]:
     return [Measurement(kinds[i % len(kinds)], "src", i * 0.001, {"x": 1.0}) for i in range(n)]
 
 
-class _NoopCore:
-    inputs = frozenset(KINDS)
+class _NoopCore(Estimator):
+    """Takes every measurement kind and makes nothing; sets `done` at the n-th."""
 
-    def __init__(self, n: int, done: asyncio.Event) -> None:
+    def __init__(self, config: EstimatorConfig, n: int, done: asyncio.Event) -> None:
+        super().__init__(config)
         self.left = n
         self.done = done
 
-    def step(self, rec: object) -> list:
+    @handles(*KINDS)
+    def _any(self, rec: Measurement) -> None:
         self.left -= 1
         if not self.left:
             self.done.set()
-        return []
 
 
 async def _through_worker(ms: list[Measurement]) -> float:
@@ -48,8 +50,10 @@ async def _through_worker(ms: list[Measurement]) -> float:
     clock = ManualClock()
 
     class Noop(EstimatorPlugin):
-        def make_core(self) -> _NoopCore:
-            return _NoopCore(n, done)
+        Core = _NoopCore
+
+        def make_core(self) -> _NoopCore:  # (not from the configuration alone)
+            return _NoopCore(self.config, n, done)
 
     # No stale ticks: the figure is the host's cost per measurement, nothing else.
     plugin = Noop(EstimatorConfig(type="noop", queue_size=min(n + 1, 10_000_000), stale_after=0.0), None)  # type: ignore[arg-type]

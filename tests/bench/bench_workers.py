@@ -13,7 +13,7 @@ SOG/COG at 10 Hz, heading and rate of turn at 10 Hz, the Doppler log at 1 Hz
    possible the way the replay driver feeds it (a yield every 512 records, a wait
    while the worker's queue is more than half full, a health snapshot per second of
    data). Printed per placement: µs per measurement (wall, and CPU of the parent
-   process: event loop plus helper thread; for `process` also the child's CPU),
+   process: event loop plus its threads; for `process` also the child's CPU),
    measurements/s and the real-time factor (seconds of data per wall second,
    = rate / 741), min and median of several runs. A first row feeds the same stream
    to a Runtime without estimators: the feed's and the router's own cost.
@@ -27,7 +27,7 @@ SOG/COG at 10 Hz, heading and rate of turn at 10 Hz, the Doppler log at 1 Hz
    core that keeps up (1 ms: 74 %), and the loop placement with the slow core for
    contrast (it stalls for whole batches of steps: what the process placement is for).
    Each stall over 5 ms is matched against what overlapped it (the host's `prepare`
-   and `apply` in the loop, the helper thread's `send`/`recv` with their pickling, the
+   and `apply` in the loop, the pickling of the calls sent (`send`, in the loop), the
    garbage collector, the health snapshot), and one full batch's parts are timed alone.
 
 Nothing is bound to the network; the only child processes are the process workers.
@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
-import heapq
 import math
 import os
 import random
@@ -52,11 +51,13 @@ from procstat import cpu_seconds  # noqa: E402  (this folder)
 
 from edged.clock import LiveClock, ReplayClock
 from edged.config import parse_config
+from edged.datatime import CallPlan
+from edged.estimator import Estimator, handles
 from edged.plugin import EstimatorConfig, EstimatorPlugin
 from edged.records import Estimate, Measurement, validate_measurement
 from edged.registry import Registry
 from edged.runtime import Runtime
-from edged.workers import MAX_CALLS, MAX_CALLS_PROCESS, ProcessRunner
+from edged.workerproc import MAX_CALLS, MAX_CALLS_PROCESS, ProcessRunner
 
 REFERENCE_RATE = 741.0  # measurements per second of data (DESIGN §9: "about 740")
 STALL_TARGET = 0.005  # s
@@ -72,17 +73,17 @@ class BenchConfig(EstimatorConfig):
     step_delay: float = 0.0
 
 
-class BenchCore:
+class BenchCore(Estimator):
     """Consumes the reference-load kinds; one `stw`-shaped estimate per step."""
 
-    inputs = frozenset(KINDS_FED)
-
-    def __init__(self, step_delay: float) -> None:
-        self.delay = step_delay
+    def __init__(self, cfg: BenchConfig) -> None:
+        super().__init__(cfg)
+        self.delay = cfg.step_delay
         self.n = 0
         self.x = 0.0
 
-    def step(self, rec: Measurement) -> list[Estimate]:
+    @handles(*KINDS_FED)
+    def _any(self, rec: Measurement) -> list[Estimate]:
         if self.delay:
             time.sleep(self.delay)
         self.n += 1
@@ -110,10 +111,8 @@ class BenchCore:
 
 class BenchEstimator(EstimatorPlugin):
     Config = BenchConfig
+    Core = BenchCore
     kind = "stw"
-
-    def make_core(self) -> BenchCore:
-        return BenchCore(self.config.step_delay)
 
 
 def _registry() -> Registry:
@@ -217,7 +216,7 @@ async def throughput_run(placement: str | None, sched: list, data_seconds: float
     n = len(ms)
     # Done when every measurement is stepped. Not `watermark() >= router.seq` (the tests'
     # settle()): with more than 1024 records queued, the watermark runs ahead of them.
-    await _until(lambda: w is None or (w.health.counters.get("steps", 0) >= n and not w._busy))
+    await _until(lambda: w is None or (w.health.counters.get("steps", 0) >= n and not w.order.busy))
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     child1 = cpu_seconds(pid)
     res = {"wall_us": wall / n * 1e6, "cpu_us": cpu / n * 1e6, "rate": n / wall, "rtf": data_seconds / wall}
@@ -279,7 +278,7 @@ class _Events:
 
         rt.tick = _tick  # type: ignore[method-assign]
         for w in rt.workers:
-            work, apply, call, entered = w._work, w._apply, w.runner.call, [None]
+            work, apply, call, entered = w._work, w.out.apply, w.runner.call, [None]
             in_loop = not isinstance(w.runner, ProcessRunner)
 
             async def _work(items: list, final: bool = False, _work=work, _e=entered) -> None:
@@ -288,7 +287,7 @@ class _Events:
 
             async def _call(calls: list, _call=call, _e=entered, _in_loop=in_loop) -> list:
                 if _e[0] is not None:  # the first batch began before the wrapping
-                    ev.add(_e[0], "prepare", len(calls))  # _take + _admit of this batch
+                    ev.add(_e[0], "prepare", len(calls))  # order.take + plan.admit of this batch
                 t0 = time.perf_counter()
                 out = await _call(calls)
                 if _in_loop:
@@ -300,25 +299,24 @@ class _Events:
                 _apply(calls, results, causes)
                 ev.add(t0, "apply", len(calls))
 
-            w._work, w._apply, w.runner.call = _work, _apply, _call  # type: ignore[method-assign]
+            w._work, w.out.apply, w.runner.call = _work, _apply, _call  # type: ignore[method-assign]
 
     def instrument_pipe(self, runner: ProcessRunner) -> None:
-        """The helper thread's pickling: send = dumps + write, recv = read + loads."""
-        conn, ev = runner._conn, self
-        send, recv = conn.send, conn.recv
+        """The pickling of each message to the child: `send` = `ChildProcess.submit`,
+        in the loop (dumps, then its bytes handed to the writer thread). There is no
+        "recv" figure any more: the answers are read and unpickled by the receiver
+        thread inside `edged.childproc`, which has no method to wrap from here (a
+        long unpickling shows as a stall that nothing recorded overlapped)."""
+        child, ev = runner.child, self
+        submit = child.submit
 
-        def _send(obj: Any) -> None:
+        def _submit(what: str, arg: Any = None, **kw: Any) -> Any:
             t0 = time.perf_counter()
-            send(obj)
-            ev.add(t0, "send", len(obj[1]) if obj and obj[0] == "calls" else 0)
+            fut = submit(what, arg, **kw)
+            ev.add(t0, "send", len(arg) if what == "calls" else 0)
+            return fut
 
-        def _recv() -> Any:
-            t0 = time.perf_counter()
-            msg = recv()
-            ev.add(t0, "recv", len(msg[1]) if msg and msg[0] == "ok" else 0)
-            return msg
-
-        conn.send, conn.recv = _send, _recv
+        child.submit = _submit  # type: ignore[method-assign]
 
     def blame(self, stalls: list[tuple[float, float]]) -> dict[str, int]:
         """For each stall (the interval the loop did not answer), what overlapped it."""
@@ -388,7 +386,7 @@ async def stall_run(placement: str | None, step_delay: float, sched: list, secon
         c = w.health.counters
         res.update(
             steps=c.get("steps", 0),
-            backlog=len(w.sub.queue) + len(w._pending),
+            backlog=len(w.sub.queue) + len(w.order.pending),
             overflow=w.sub.overflow,
             dropped=sum(v for k, v in c.items() if k.startswith("dropped")),
             late=c.get("late", 0),
@@ -422,7 +420,7 @@ def _stall(label: str, r: dict[str, Any]) -> list[str]:
             f" (at most {MAX_CALLS} in the loop, {MAX_CALLS_PROCESS} to a process)"
         )
         parts = []
-        for what, where in (("core", "loop"), ("prepare", "loop"), ("apply", "loop"), ("send", "helper"), ("recv", "helper")):
+        for what, where in (("core", "loop"), ("prepare", "loop"), ("apply", "loop"), ("send", "loop")):
             d, n = ev.longest(what)
             if n or d:
                 parts.append(f"{what} ({where}) {d * 1e3:.2f} ms for {n} calls")
@@ -434,13 +432,14 @@ def _stall(label: str, r: dict[str, Any]) -> list[str]:
 
 def full_batch_costs(sched: list) -> tuple[dict[str, float], str]:
     """What one full batch (MAX_CALLS step calls) costs, each part timed alone (min of 9,
-    so the machine's noise mostly drops out): in the helper thread, pickle's dumps of the
-    calls and loads of the results (C code: the GIL is held throughout); in the loop,
-    `prepare` (_take + _admit) and `_apply` (stamp + publish) of the host."""
+    so the machine's noise mostly drops out): pickle's dumps of the calls (in the loop,
+    `ChildProcess.submit`) and loads of the results (in the receiver thread; C code: the
+    GIL is held throughout); in the loop, `prepare` (`order.take` + `plan.admit`) and
+    `out.apply` (stamp + publish) of the host."""
     from multiprocessing.reduction import ForkingPickler
 
     ms = [Measurement(kind, src, 1_700_000_000.0 + off, v) for off, kind, src, v in sched[:MAX_CALLS]]
-    core = BenchCore(0.0)
+    core = BenchCore(BenchConfig(type="bench"))
     calls = [("step", m) for m in ms]
     results = [core.step(m) for m in ms]
     out_msg = ("calls", calls)
@@ -451,18 +450,22 @@ def full_batch_costs(sched: list) -> tuple[dict[str, float], str]:
     causes = list(range(1, len(ms) + 1))
     items = list(zip(causes, ms))
 
+    cfg = w.plugin.config
+    ticking = cfg.publish_rate > 0 or cfg.stale_after > 0 or w.plugin.ticks()
+
     def prepare() -> None:
-        w._pending, w._stepped, w._next_tick = [], -math.inf, None
-        w._take(items)
+        w.order.pending.clear()
+        w.plan = CallPlan(w.health, cfg.reorder_window, cfg.publish_rate, ticking)  # no time seen yet
+        w.order.take(items)
         c: list = []
         cs: list = []
-        pending = w._pending
+        pending = w.order.pending
         while pending:
-            seq, _, _, rec = heapq.heappop(pending)
-            w._admit(seq, rec, c, cs)
+            seq, _, _, rec = pending.popleft()
+            w.plan.admit(seq, rec, c, cs)
 
     def apply() -> None:
-        w._apply(calls, results, causes)
+        w.out.apply(calls, results, causes)
         w.sub.queue.drain_nowait()  # its own estimates are not its input; keep it empty
 
     def best(f: Any) -> float:
@@ -481,9 +484,10 @@ def full_batch_costs(sched: list) -> tuple[dict[str, float], str]:
     }
     c = {k: v * 1e3 for k, v in cost.items()}
     line = (
-        f"    one full batch of {MAX_CALLS} calls, each part alone (min of 9): helper thread, GIL held:"
-        f" dumps {c['dumps']:.2f} ms ({len(out_bytes) // 1024} KiB), loads of the results {c['loads']:.2f} ms"
-        f" ({len(in_bytes) // 1024} KiB); loop: apply {c['apply']:.2f} ms, prepare {c['prepare']:.2f} ms\n"
+        f"    one full batch of {MAX_CALLS} calls, each part alone (min of 9), GIL held: dumps (loop)"
+        f" {c['dumps']:.2f} ms ({len(out_bytes) // 1024} KiB), loads of the results (receiver thread)"
+        f" {c['loads']:.2f} ms ({len(in_bytes) // 1024} KiB); loop: apply {c['apply']:.2f} ms,"
+        f" prepare {c['prepare']:.2f} ms\n"
         f"    back to back when a full batch returns to a saturated worker (loads, apply, the next batch's"
         f" prepare, its dumps): {sum(c.values()):.2f} ms without the loop"
     )

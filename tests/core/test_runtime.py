@@ -133,7 +133,7 @@ async def test_failing_worker_is_restarted_with_a_fresh_core(registry):
     w = rt.health.components["estimator:sum"]
     assert w.restarts == 1 and "bad value" in w.last_error
     assert len(SumEstimator.cores) == 2
-    assert SumEstimator.cores[1].seen == [2.0]
+    assert SumEstimator.cores[1].times == [2.0]
 
 
 async def test_failing_output_is_closed_and_reopened(registry):
@@ -221,7 +221,7 @@ async def test_reorder_window_restores_time_order(registry):
     for t in (1.0, 3.0, 2.5, 2.2, 0.5, 4.0, 5.0):
         rt.router.publish(Measurement("yaw_rate", "g", t, {"r": 1.0}))
     await rt.stop()  # finishing a worker releases what its window still holds
-    assert SumEstimator.cores[0].seen == [1.0, 2.2, 2.5, 3.0, 4.0, 5.0]
+    assert SumEstimator.cores[0].times == [1.0, 2.2, 2.5, 3.0, 4.0, 5.0]
     assert rt.workers[0].health.counters["late"] == 1
 
 

@@ -73,9 +73,9 @@ async def test_chain_sees_a_measurement_then_its_upstream_estimate_whatever_the_
 
 
 def _reference_chain(registry, n: int = 40) -> list:
-    from core_dummies import ChainCore, SumCore
+    from core_dummies import ChainConfig, ChainCore, SumConfig, SumCore
 
-    s, c = SumCore(None), ChainCore("sum")
+    s, c = SumCore(SumConfig(type="sum")), ChainCore(ChainConfig(type="chain", upstream="sum"))
     out = []
     for i in range(n):
         m = yaw(100.0 + i * 0.1, float(i % 5))
@@ -183,6 +183,22 @@ async def test_a_core_with_tick_publishes_on_the_grid(registry):
     await rt.stop()
     got = streams(ListOutput.instances[0].records)["m"]
     assert [t for t, _ in got] == [100.5, 101.0, 101.5, 102.0, 102.5]
+
+
+async def test_a_process_worker_makes_no_core_in_the_parent(registry):
+    """What a process worker's core consumes and whether it ticks are read from its
+    class and configuration (`EstimatorPlugin.inputs()`, `ticks()`): its only core is
+    the one made in its own process."""
+    from core_dummies import SumEstimator
+
+    rt = _runtime(registry, {"estimators": {"s": {"type": "sum", "worker": "process"}}})
+    assert rt.workers[0].inputs == {"yaw_rate"}
+    await rt.start()
+    rt.router.publish(yaw(100.0, 1.5))
+    await settle(rt)
+    await rt.stop()
+    assert SumEstimator.cores == []  # (those made here; the child's are its own)
+    assert [v["total"] for _, v in streams(ListOutput.instances[0].records)["s"]] == [1.5]
 
 
 async def test_an_estimate_goes_stale_when_its_inputs_stop_and_recovers(registry):

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import os
+import sys
+import time
 from typing import Any, BinaryIO, Iterator
 
 from edged.plugin import (
@@ -14,6 +16,7 @@ from edged.plugin import (
     OutputPlugin,
     ReplayOptions,
 )
+from edged.estimator import ESTIMATES, Estimator, handles
 from edged.health import ComponentHealth
 from edged.records import Estimate, Measurement, RawRecord
 
@@ -91,55 +94,27 @@ class DummyLog:
             yield RawRecord("dummy", source, t, line)
 
 
-class SumCore:
-    """Running sum of `yaw_rate.r`; also re-emits upstream estimates it consumes."""
-
-    inputs = frozenset({"yaw_rate"})
-
-    def __init__(self, fail_on: float | None) -> None:
-        self.total = 0.0
-        self.fail_on = fail_on
-        self.seen: list[float] = []
-
-    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        if self.fail_on is not None and rec.values.get("r") == self.fail_on:
-            raise ValueError("bad value")
-        self.seen.append(rec.t)
-        self.total += rec.values["r"]
-        return [Estimate("sum", "sum", rec.t, {"total": self.total})]
-
-
-class ChainCore:
-    """Consumes an upstream estimate and the raw yaw rate: order-sensitive on purpose
-    (a trace of what came in, and a running value that any reordering changes)."""
-
-    def __init__(self, upstream: str) -> None:
-        self.upstream = upstream
-        self.inputs = frozenset({f"est/{upstream}", "yaw_rate"})
-        self.trace: list[str] = []
-        self.value = 0.0
-
-    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        self.trace.append(rec.route_key)
-        x = rec.values["total"] if isinstance(rec, Estimate) else rec.values["r"]
-        self.value = 0.9 * self.value + x
-        return [
-            Estimate("chain", "chain", rec.t, {"trace": "".join(k[0] for k in self.trace[-16:]), "value": self.value})
-        ]
-
-
 class SumConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
     fail_on: float | None = None
 
 
-class SumEstimator(EstimatorPlugin):
-    Config = SumConfig
-    cores: list[SumCore] = []
+class SumCore(Estimator):
+    """Running sum of `yaw_rate.r`; raises on the value `fail_on`."""
 
-    def make_core(self) -> SumCore:
-        core = SumCore(self.config.fail_on)
-        SumEstimator.cores.append(core)
-        return core
+    def __init__(self, cfg: SumConfig) -> None:
+        super().__init__(cfg)
+        self.total = 0.0
+        self.fail_on = cfg.fail_on
+        #: Times of the yaw rates summed, in the order stepped.
+        self.times: list[float] = []
+
+    @handles("yaw_rate")
+    def _yaw_rate(self, rec: Measurement) -> list[Estimate]:
+        if self.fail_on is not None and rec.values.get("r") == self.fail_on:
+            raise ValueError("bad value")
+        self.times.append(rec.t)
+        self.total += rec.values["r"]
+        return [Estimate("sum", "sum", rec.t, {"total": self.total})]
 
 
 class ChainConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
@@ -147,11 +122,50 @@ class ChainConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
     upstream: str = "sum"
 
 
+class ChainCore(Estimator):
+    """Consumes an upstream estimate and the raw yaw rate: order-sensitive on purpose
+    (a trace of what came in, and a running value that any reordering changes)."""
+
+    @classmethod
+    def upstream(cls, config: ChainConfig) -> tuple[str, ...]:
+        return (config.upstream,)
+
+    def __init__(self, cfg: ChainConfig) -> None:
+        super().__init__(cfg)
+        self.trace: list[str] = []
+        self.value = 0.0
+
+    @handles(ESTIMATES)
+    def _estimate(self, rec: Estimate) -> list[Estimate]:
+        return self._advance(rec, rec.values["total"])
+
+    @handles("yaw_rate")
+    def _yaw_rate(self, rec: Measurement) -> list[Estimate]:
+        return self._advance(rec, rec.values["r"])
+
+    def _advance(self, rec: Measurement | Estimate, x: float) -> list[Estimate]:
+        self.trace.append(rec.route_key)
+        self.value = 0.9 * self.value + x
+        trace = "".join(k[0] for k in self.trace[-16:])
+        return [Estimate("chain", "chain", rec.t, {"trace": trace, "value": self.value})]
+
+
+class SumEstimator(EstimatorPlugin):
+    Config = SumConfig
+    Core = SumCore
+    #: Every core made, in order (a test reads what each one summed).
+    cores: list[SumCore] = []
+
+    def make_core(self) -> SumCore:
+        core = super().make_core()
+        assert isinstance(core, SumCore)
+        SumEstimator.cores.append(core)
+        return core
+
+
 class ChainEstimator(EstimatorPlugin):
     Config = ChainConfig
-
-    def make_core(self) -> ChainCore:
-        return ChainCore(self.config.upstream)
+    Core = ChainCore
 
 
 class MeanConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
@@ -160,65 +174,62 @@ class MeanConfig(EstimatorPlugin.Config):  # type: ignore[name-defined,misc]
     #: A yaw rate on which the core hangs for `hang_for` seconds.
     hang_on: float | None = None
     hang_for: float = 60.0
-    #: Publish only on ticks (a core with `tick`).
+    #: Publish only on ticks (the core `TickingMeanCore`).
     tick_only: bool = False
 
 
-class MeanCore:
+class MeanCore(Estimator):
     """Mean of the yaw rates seen, with its own health: NIS of each update, a gate
     for |r| > 1 rad/s, a reset when r is exactly 0.5, and a problem named while the
     latest r is negative."""
 
-    inputs = frozenset({"yaw_rate"})
+    nis_window = 10
 
     def __init__(self, cfg: MeanConfig) -> None:
-        from edged.innovation import InnovationMonitor
-
-        self.cfg = cfg
+        super().__init__(cfg)
         self.n = 0
         self.mean = 0.0
         self.last_r = 0.0
-        self.monitor = InnovationMonitor(window=10)
-        if cfg.tick_only:
-            self.tick = self._tick
 
-    def step(self, rec: Measurement | Estimate) -> list[Estimate]:
-        import time
-
+    @handles("yaw_rate")
+    def _yaw_rate(self, rec: Measurement) -> list[Estimate]:
         r = rec.values["r"]
         self.last_r = r
         if self.cfg.step_delay:
             time.sleep(self.cfg.step_delay)
         if self.cfg.hang_on is not None and r == self.cfg.hang_on:
-            import sys
-
             print("event=core-hangs", file=sys.stderr, flush=True)  # for a test that signals it now
             time.sleep(self.cfg.hang_for)
         if abs(r) > 1.0:
-            self.monitor.gated("yaw_rate")
+            self.gated("yaw_rate")
             return []
         if r == 0.5:
-            self.monitor.reset("r was 0.5", rec.t)
-        self.monitor.update("yaw_rate", (r - self.mean) ** 2, 1)
+            self.reset("r was 0.5", rec.t)
+        self.updated("yaw_rate", (r - self.mean) ** 2, 1)
         self.n += 1
         self.mean += (r - self.mean) / self.n
-        return [] if self.cfg.tick_only else [Estimate("x", "x", rec.t, {"mean": self.mean, "n": self.n})]
+        return [] if self.cfg.tick_only else [self._estimate(rec.t)]
 
-    def _tick(self, t: float) -> list[Estimate]:
-        return [Estimate("x", "x", t, {"mean": self.mean, "n": self.n})]
+    def _estimate(self, t: float) -> Estimate:
+        return Estimate("x", "x", t, {"mean": self.mean, "n": self.n})
 
-    def health(self) -> dict[str, Any]:
-        out = self.monitor.snapshot()
-        out["problems"] = [f"yaw_rate/gyro: r {self.last_r} is negative"] if self.last_r < 0 else []
-        return out
+    def problems(self) -> list[str]:
+        return [f"yaw_rate/gyro: r {self.last_r} is negative"] if self.last_r < 0 else []
+
+
+class TickingMeanCore(MeanCore):
+    """The mean published at the ticks only (`tick_only`)."""
+
+    def tick(self, t: float) -> list[Estimate]:
+        return [self._estimate(t)]
 
 
 class MeanEstimator(EstimatorPlugin):
     Config = MeanConfig
     kind = "stw"  # any defined kind: the host stamps it on every estimate
 
-    def make_core(self) -> MeanCore:
-        return MeanCore(self.config)
+    def core_class(self) -> type[MeanCore]:
+        return TickingMeanCore if self.config.tick_only else MeanCore
 
 
 class ListOutputConfig(OutputConfig):
@@ -261,8 +272,6 @@ class ListOutput(OutputPlugin):
 
     async def close(self) -> None:
         self.events.append("close")
-
-
 
 
 class FileOutputConfig(OutputConfig):
