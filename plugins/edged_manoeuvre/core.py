@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from edged.angles import wrap_2pi
 from edged.geo import LocalPlane
 from edged.estimator import ESTIMATES, Estimator, handles
 from edged.records import Estimate, Measurement
@@ -39,7 +40,7 @@ from .filter import KalmanFilter
 from .forecast import VG_MAX_AGE, Anchors, Forecast
 from .gnss_checks import GnssChecks
 from .health import Sideways, missing, nis_problems
-from .model import KINDS, PSI, R, residual, say, wrap_2pi
+from .model import KINDS, PSI, R, residual, say
 from .process_noise import ProcessNoise
 from .sources import SourceCopies
 from .start import Motion, Start, initial_state, make_filter

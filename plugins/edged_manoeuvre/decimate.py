@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from .model import wrap_2pi
+from edged.angles import wrap_2pi
 
 
 class _Source:

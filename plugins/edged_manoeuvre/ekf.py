@@ -24,10 +24,12 @@ from typing import ClassVar
 
 import numpy as np
 
+from edged.angles import wrap_2pi
+
 from .cmm import Cmm
 from .ctra import Ctra
 from .filter import KalmanFilter
-from .model import KINDS, PSI, Innovation, _eye, inv_small, judge, reset_position, residual, transition, wrap_2pi
+from .model import KINDS, PSI, Innovation, _eye, inv_small, judge, reset_position, residual, transition
 
 
 class Ekf(KalmanFilter):

@@ -21,10 +21,12 @@ from typing import ClassVar
 
 import numpy as np
 
+from edged.angles import wrap_2pi, wrap_pi
+
 from .cmm import Cmm
 from .ctra import Ctra
 from .filter import KalmanFilter
-from .model import KINDS, PSI, Innovation, circular_mean, judge, residual, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, Innovation, circular_mean, judge, residual, rk4
 
 
 class Enkf(KalmanFilter):

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from edged.angles import wrap_2pi
 from edged.geo import LocalPlane
 
 from .blend import ForecastBlend
@@ -26,7 +27,7 @@ from .calibrate import EllipseCalibration
 from .cmm import Cmm
 from .config import ManoeuvreConfig
 from .ctra import Ctra
-from .model import PSI, R, wrap_2pi
+from .model import PSI, R
 from .predict import Predictor
 
 CANDIDATES = ("model", "model_low_rate", "straight", "track", "dead_reckoning")

@@ -25,7 +25,7 @@ from typing import Callable
 
 import numpy as np
 
-from edged.angles import TWO_PI, wrap_2pi, wrap_pi  # noqa: F401 (used by the filters through here)
+from edged.angles import wrap_2pi, wrap_pi
 
 DEG = math.pi / 180.0
 

@@ -22,7 +22,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .model import PSI, transition, wrap_2pi
+from edged.angles import wrap_2pi
+
+from .model import PSI, transition
 
 #: Indices of the two acceleration states (a_u, a_v or a_t, a_n) in both models.
 ACC = (6, 7)

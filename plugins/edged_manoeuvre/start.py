@@ -18,11 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from edged.angles import wrap_2pi
+
 from .cmm import Cmm
 from .config import DEG, ManoeuvreConfig
 from .ctra import Ctra
 from .filter import KalmanFilter
-from .model import PSI, wrap_2pi
+from .model import PSI
 
 #: A heading or yaw rate older than this does not start the filter.
 START_AGE = 1.0

@@ -14,8 +14,10 @@ from collections import deque
 
 import numpy as np
 
+from edged.angles import wrap_pi
+
 from .config import DEG
-from .model import wrap_pi
+
 
 #: The course over ground decides between two disagreeing compasses when the track
 #: of the last TRACK_SPAN s is at least TRACK_SPEED m/s and one compass is closer to it

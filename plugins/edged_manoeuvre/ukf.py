@@ -20,10 +20,12 @@ from typing import ClassVar
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, unscented_transform
 
+from edged.angles import wrap_2pi, wrap_pi
+
 from .cmm import Cmm
 from .ctra import Ctra
 from .filter import KalmanFilter
-from .model import KINDS, PSI, Innovation, circular_mean, judge, reset_position, residual, rk4, wrap_2pi, wrap_pi
+from .model import KINDS, PSI, Innovation, circular_mean, judge, reset_position, residual, rk4
 
 
 def residual_x(a: np.ndarray, b: np.ndarray) -> np.ndarray:

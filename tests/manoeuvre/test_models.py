@@ -11,7 +11,8 @@ import pytest
 
 from edged_manoeuvre.cmm import Cmm
 from edged_manoeuvre.ctra import Ctra
-from edged_manoeuvre.model import KINDS, circular_mean, rcond, residual, rk4, transition, wrap_2pi, wrap_pi
+from edged.angles import wrap_2pi, wrap_pi
+from edged_manoeuvre.model import KINDS, circular_mean, rcond, residual, rk4, transition
 
 MODELS = [Ctra(False), Ctra(True), Cmm(False), Cmm(True)]
 
