@@ -127,8 +127,15 @@ class OutputHost:
                 self.health.error(f"flush: {type(exc).__name__}: {exc}")
 
     async def drain_and_close(self) -> None:
+        """The stop: what is queued goes to the plugin, which is then closed. An output
+        that is not open (failed, or its process dead and waiting for its restart)
+        takes nothing: its queue is counted lost, `dropped.not_open`."""
         if not self.opened and await self.plugin.started():
             self.opened = True  # stopped while its process was starting: it takes the queue
+        if not self.opened:
+            rest = self.sub.queue.drain_nowait()
+            if rest:
+                self.health.count("dropped.not_open", len(rest))
         if self.opened:
             rest = self.sub.queue.drain_nowait()
             if rest:

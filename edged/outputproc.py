@@ -260,7 +260,8 @@ class ProcessOutput:
 
     async def started(self) -> bool:
         """Stopped while its process was starting: True once it is up and open (it
-        then takes what was queued)."""
+        then takes what was queued). False for a process that died since it opened
+        (waiting for its restart): nothing there takes the queue."""
         if self.opening is None:
             return False
         try:
@@ -268,7 +269,7 @@ class ProcessOutput:
         except Exception as exc:
             self.health.error(f"open: {type(exc).__name__}: {exc}")
             return False
-        return True
+        return self.child.alive
 
     def send(self, batch: list[Any], now: float, mono: float) -> "asyncio.Future[Any]":
         """The batch on its way (behind what was asked before), to be written with the
@@ -290,8 +291,12 @@ class ProcessOutput:
         return RuntimeError(exc.message) if isinstance(exc, CallFailed) else exc
 
     def write(self, batch: list[Any]) -> None:
-        """(the final drain at shutdown: queued behind what is on its way)"""
-        forget(self.send(batch, self.child.clock.now(), self.child.clock.monotonic()))
+        """(the final drain at shutdown: queued behind what is on its way) A batch the
+        process can no longer take raises, so that the host counts it lost."""
+        fut = self.send(batch, self.child.clock.now(), self.child.clock.monotonic())
+        forget(fut)
+        if fut.done():  # refused: the process is gone
+            raise ChildGone(f"{self.name}'s process is gone: {len(batch)} records not written")
 
     async def ready(self, timeout: float | None = None) -> bool:
         """Once the process has started and opened the plugin (a replay must not
@@ -319,6 +324,7 @@ class ProcessOutput:
         try:
             await self._call("close")
         finally:
+            self.opening = None
             await self.child.stop()
 
     def lost_at_death(self, unanswered: int) -> int:

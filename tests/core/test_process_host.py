@@ -197,3 +197,36 @@ async def test_calls_made_while_the_child_dies_all_end(registry):
     assert isinstance(results[-1], ChildGone) and "m's process is gone" in str(results[-1])
     await runner.stop()
     runner.close()
+
+
+async def test_a_stop_while_a_dead_output_waits_for_its_restart_counts_the_queue_lost(registry, tmp_path):
+    """The review of issue 33: an output whose process died and that waits for its
+    restart when the daemon stops has nothing to take its queue. Every record is
+    either written or counted lost, never counted written and gone."""
+    path = tmp_path / "f.txt"
+    cfg = parse_config({"outputs": {"f": {"type": "file", "worker": "process", "path": str(path)}}}, registry)
+    async def backoff_for_ever(delay: float) -> None:  # the restart never comes before the stop
+        if delay >= 1.0:
+            await asyncio.Event().wait()
+        await asyncio.sleep(0)
+
+    rt = Runtime(cfg, registry, ManualClock(100.0), replay=True, restart=RestartPolicy(initial=30.0),
+                 sleep=backoff_for_ever)
+    host = rt.outputs[0]
+    await rt.start()
+    await wait_for(lambda: host.opened)
+    for i in range(3):
+        rt.router.publish(_yaw(100.0 + i, 0.1))
+    await wait_for(lambda: host.health.counters.get("written", 0) == 3)
+    os.kill(host.plugin.pid, signal.SIGKILL)
+    rt.router.publish(_yaw(103.0, 0.1))  # finds it dead: the output goes to its backoff
+    await wait_for(lambda: host.health.restarts == 1)
+    for i in range(4, 9):
+        rt.router.publish(_yaw(100.0 + i, 0.1))
+    await rt.stop()
+    c = host.health.counters
+    lost = sum(v for k, v in c.items() if k.startswith("dropped.")) + c.get("overflow", 0)
+    written = sum(1 for line in path.read_text().splitlines() if line.split()[1:3] == ["write", "Measurement"])
+    assert written == 3
+    assert c.get("written", 0) - c.get("dropped.process_died", 0) == written, c
+    assert written + lost == 9, c
