@@ -78,9 +78,12 @@ class _Collect(logging.Handler):
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            self.records.append((record.name, record.levelno, record.getMessage()))
+            text = record.getMessage()
+            if record.exc_info:  # `log.exception` in a core or a plugin: its traceback too
+                text += "\n" + logging.Formatter().formatException(record.exc_info)
         except Exception:  # a record that cannot be formatted must not stop the child
-            self.records.append((record.name, record.levelno, str(record.msg)))
+            text = str(record.msg)
+        self.records.append((record.name, record.levelno, text))
 
     def take(self) -> list[tuple[str, int, str]]:
         out, self.records = self.records, []

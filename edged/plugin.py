@@ -17,13 +17,14 @@ Beside the three roles, a `LogReader` reads the files of one log format for
 so that the replay driver asks the readers and no input or output class.
 
 Plugins are discovered through the entry point groups `edged.inputs`,
-`edged.estimators` and `edged.outputs`; log readers in `edged.logs`; CLI subcommands
-a plugin implements are in `edged.commands`.
+`edged.estimators` and `edged.outputs`; log readers in `edged.logs`; the estimate
+kinds an estimator package declares in `edged.estimate_kinds` (`edged.estimates`);
+recording readers in `edged.recordings` (`edged.recordings`); subcommands in
+`edged.commands` (`edged.subcommand.Subcommand`).
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,7 +51,6 @@ __all__ = [
     "OutputPlugin",
     "ReplayOptions",
     "LogReader",
-    "Command",
 ]
 
 
@@ -355,10 +355,3 @@ class OutputPlugin(Plugin):
         and what it left behind (a recorder's file); None: not known here (then the
         records of the writes that got no answer are counted)."""
         return None
-
-
-class Command(Protocol):
-    """A CLI subcommand implemented by a plugin (entry point group `edged.commands`)."""
-
-    def __call__(self, args: argparse.Namespace) -> int: ...
-

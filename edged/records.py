@@ -12,7 +12,7 @@ import sys
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from .angles import TWO_PI, wrap_2pi
+from .angles import TWO_PI
 
 __all__ = [
     "Field",
@@ -26,17 +26,8 @@ __all__ = [
     "InvalidMeasurement",
     "validate_measurement",
     "measurement_to_json",
-    "TWO_PI",
     "ANGLE_MAX",
-    "wrap_angle",
 ]
-
-
-
-def wrap_angle(a: float) -> float:
-    """Map an angle onto [0, 2π), the convention of every angle in a measurement
-    (`edged.angles.wrap_2pi`, the one way)."""
-    return wrap_2pi(a)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, slots=True)

@@ -411,7 +411,7 @@ class Replayer:
         wlimit = min((w.sub.queue.maxsize // 2 for w in rt.workers), default=0)
         while rt.workers and rt.worker_backlog() > wlimit:
             # until each full worker has taken its next batch (in its own process, in
-            # its own time: nothing here holds the GIL its helper thread needs)
+            # its own time: nothing here holds the GIL the process host's threads need)
             await rt.worker_progress(wlimit, WORKER_WAIT)
         limit = 0 if final else min((o.sub.queue.maxsize // 2 for o in rt.outputs), default=0)
         while rt.outputs and (rt.output_backlog() > limit or rt.outputs_blocked()):

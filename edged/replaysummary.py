@@ -6,7 +6,8 @@ from typing import TextIO
 
 from .health import OK_STATES
 from .replay import ReplayStats, utc_iso
-from .runtime import OutputHost, Runtime
+from .outputhost import OutputHost
+from .runtime import Runtime
 
 
 def _counted(counters: dict[str, int], prefix: str) -> tuple[int, str]:

@@ -13,7 +13,8 @@ from .cmdconfig import command_options, with_overrides
 from .config import ConfigError, load_config
 from .logs import reopen_logs, setup_logging
 from .registry import Registry
-from .runtime import OutputHost, PluginBuildError, Runtime
+from .outputhost import OutputHost
+from .runtime import PluginBuildError, Runtime
 from .sdnotify import Notifier, feed_watchdog, watchdog_period
 from .signals import StopSignals
 from .subcommand import EXIT_FAILURE, EXIT_OK, EXIT_USAGE

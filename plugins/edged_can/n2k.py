@@ -18,8 +18,9 @@ from __future__ import annotations
 import math
 from typing import Any, Callable
 
+from edged.angles import TWO_PI, wrap_2pi
 from edged.health import ComponentHealth
-from edged.records import TWO_PI, Measurement, RawRecord, wrap_angle
+from edged.records import Measurement, RawRecord
 
 from . import n2k_codec
 from .config import CanConfig
@@ -203,9 +204,9 @@ class N2kDecoder:
             magnetic = heading + (dev or 0.0)
             var = self._variation_known(own)
             if var is None:
-                self._emit(out, "heading_magnetic", src, t, {"heading": wrap_angle(magnetic)})
+                self._emit(out, "heading_magnetic", src, t, {"heading": wrap_2pi(magnetic)})
             else:
-                self._emit(out, "heading", src, t, {"heading": wrap_angle(magnetic + var)})
+                self._emit(out, "heading", src, t, {"heading": wrap_2pi(magnetic + var)})
         else:
             self._health.count("rejected.heading_reference")
             self._health.error(f"{src}: PGN 127250 heading reference {ref!r} is neither true nor magnetic")
@@ -278,7 +279,7 @@ class N2kDecoder:
             if var is None:
                 self._emit.unavailable("129026.cog_true")  # magnetic COG, no variation known
             else:
-                values["cog"] = wrap_angle(cog + var)
+                values["cog"] = wrap_2pi(cog + var)
         self._emit(out, "velocity_ground", self._sources.name(addr), t, values)
 
     def _gnss_position(self, f: dict[str, Any], _p: bytes, addr: int, t: float, out: list[Measurement]) -> None:

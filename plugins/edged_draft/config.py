@@ -20,7 +20,6 @@ class DraftConfig(EstimatorConfig):
     mode: Literal["adaptive", "paper"] = "adaptive"
     #: Published at this rate (estimates per second of data time).
     publish_rate: float = Field(1.0, ge=0.0, le=1000.0)
-    stale_after: float = Field(5.0, ge=0.0, le=86_400.0)
     #: In a process of its own by default: six marks at 100 Hz are 600 filter steps a
     #: second, which in the loop would take a core's worth of the inputs' time in a
     #: fast replay (`tests/bench/bench_draft.py`: 1 h replayed in about half the time).

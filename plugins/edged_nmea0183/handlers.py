@@ -22,8 +22,8 @@ import math
 import re
 from typing import Any, Callable
 
-from edged.records import TWO_PI, wrap_angle
 
+from edged.angles import TWO_PI, wrap_2pi
 from .sentences import field_index
 from .timeofday import parse_tod
 from edged.units import KNOT
@@ -170,8 +170,8 @@ def _heading(magnetic_deg: float, variation: float | None) -> Items:
     Both are in range (checked by the callers), so the sum is wrapped.
     """
     if variation is None:
-        return [("heading_magnetic", {"heading": wrap_angle(magnetic_deg * DEG)})]
-    return [("heading", {"heading": wrap_angle((magnetic_deg + variation) * DEG)})]
+        return [("heading_magnetic", {"heading": wrap_2pi(magnetic_deg * DEG)})]
+    return [("heading", {"heading": wrap_2pi((magnetic_deg + variation) * DEG)})]
 
 
 # ---- handlers ----------------------------------------------------------------------
@@ -375,7 +375,7 @@ def vdr(f: list[str], env: Env) -> Out:
     if f[true]:
         set_rad = angle_deg(f[true], "set")
     elif f[mag] and env.variation is not None:
-        set_rad = wrap_angle((direction_deg(f[mag], "magnetic set") + env.variation) * DEG)
+        set_rad = wrap_2pi((direction_deg(f[mag], "magnetic set") + env.variation) * DEG)
     else:
         raise Invalid("no set")
     return [("current", {"set": set_rad, "drift": num(f[drift]) * KNOT})], None, None

@@ -18,15 +18,9 @@ import json
 import math
 from typing import Any, Mapping
 
+from edged.angles import wrap_2pi
 from edged.health import ComponentHealth
-from edged.records import (
-    KINDS,
-    InvalidMeasurement,
-    Measurement,
-    RawRecord,
-    validate_measurement,
-    wrap_angle,
-)
+from edged.records import KINDS, InvalidMeasurement, Measurement, RawRecord, validate_measurement
 
 __all__ = ["ZenohDecoder", "CURRENT_SUFFIX"]
 
@@ -97,7 +91,7 @@ class ZenohDecoder:
             if _number(v):
                 if not -math.pi <= v <= 2.0 * math.pi:
                     raise Rejected("invalid", f"{kind}.{name}={v!r} rad is not a direction in [-π, 2π]")
-                values[name] = wrap_angle(float(v))
+                values[name] = wrap_2pi(float(v))
         try:
             validate_measurement(kind, values)
         except InvalidMeasurement as exc:

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 import edged.commands
+import edged.runcmd
 from edged.backoff import Backoff
 from edged.cli import main
 from edged.config import ConfigError, load_config, parse_config
@@ -161,7 +162,8 @@ def no_start(monkeypatch):
     def _refuse(*args, **kwargs):
         raise AssertionError("edged run started a runtime with a bad configuration")
 
-    monkeypatch.setattr(edged.commands, "Runtime", _refuse)
+    monkeypatch.setattr(edged.commands, "Runtime", _refuse)  # check-config
+    monkeypatch.setattr(edged.runcmd, "Runtime", _refuse)  # run
 
 
 @pytest.mark.parametrize("name, template, expected", BAD, ids=[b[0] for b in BAD])

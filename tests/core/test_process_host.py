@@ -5,6 +5,7 @@ watchdog kills it) is counted and restarted, and a child gives what the loop giv
 from __future__ import annotations
 
 import asyncio
+import logging
 import os
 import signal
 from pathlib import Path
@@ -230,3 +231,23 @@ async def test_a_stop_while_a_dead_output_waits_for_its_restart_counts_the_queue
     assert written == 3
     assert c.get("written", 0) - c.get("dropped.process_died", 0) == written, c
     assert written + lost == 9, c
+
+
+def test_a_childs_logged_exception_reaches_the_parent_with_its_traceback():
+    """A core or plugin in a process that logs an exception: the parent's log shows
+    where it came from, not the message alone."""
+    from edged.childmain import _Collect
+
+    collect = _Collect()
+    log = logging.getLogger("edged.test.child")
+    log.addHandler(collect)
+    try:
+        try:
+            {}["missing"]
+        except KeyError:
+            log.exception("step failed")
+    finally:
+        log.removeHandler(collect)
+    ((name, level, text),) = collect.take()
+    assert (name, level) == ("edged.test.child", logging.ERROR)
+    assert text.startswith("step failed\nTraceback") and "KeyError: 'missing'" in text

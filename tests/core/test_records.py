@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from edged.records import KINDS, InvalidMeasurement, Measurement, measurement_to_json, validate_measurement, wrap_angle
+from edged.angles import wrap_2pi
+from edged.records import KINDS, InvalidMeasurement, Measurement, measurement_to_json, validate_measurement
 
 
 def test_valid_measurements_pass():
@@ -45,10 +46,10 @@ def test_every_kind_has_si_units_and_angles_bounded():
                 assert (f.lo, f.hi) == (0.0, 2 * math.pi)
 
 
-def test_wrap_angle_stays_in_range():
-    assert wrap_angle(-0.1) == pytest.approx(2 * math.pi - 0.1)
-    assert wrap_angle(2 * math.pi) == 0.0
-    assert wrap_angle(-1e-18) == 0.0  # rounds to 2π, which is not in [0, 2π)
+def test_wrap_2pi_stays_in_range():
+    assert wrap_2pi(-0.1) == pytest.approx(2 * math.pi - 0.1)
+    assert wrap_2pi(2 * math.pi) == 0.0
+    assert wrap_2pi(-1e-18) == 0.0  # rounds to 2π, which is not in [0, 2π)
 
 
 def test_json_form_is_the_contract():

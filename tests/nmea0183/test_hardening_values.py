@@ -22,14 +22,8 @@ from hypothesis import strategies as st
 from true_values import assert_true_values
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
-from edged.records import (
-    ANGLE_MAX,
-    TWO_PI,
-    InvalidMeasurement,
-    RawRecord,
-    validate_measurement,
-    wrap_angle,
-)
+from edged.angles import TWO_PI, wrap_2pi
+from edged.records import ANGLE_MAX, InvalidMeasurement, RawRecord, validate_measurement
 from edged_nmea0183.decoder import DecoderSettings, Nmea0183Decoder
 from edged_nmea0183.handlers import HANDLERS, count, num
 
@@ -143,9 +137,9 @@ def test_rate_of_turn_has_any_sign():
     assert m.values["r"] == pytest.approx(-35.2 * DEG / 60)
 
 
-def test_wrap_angle_never_gives_minus_zero_or_two_pi():
+def test_wrap_2pi_never_gives_minus_zero_or_two_pi():
     for a in (-0.0, -1e-300, 0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, math.nextafter(0.0, -1.0)):
-        w = wrap_angle(a)
+        w = wrap_2pi(a)
         assert 0.0 <= w < TWO_PI and math.copysign(1.0, w) == 1.0, (a, w)
 
 

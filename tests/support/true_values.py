@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from typing import Iterable
 
-from edged.records import KINDS, TWO_PI, Measurement, validate_measurement
+from edged.angles import TWO_PI
+from edged.records import KINDS, Measurement, validate_measurement
 
 
 def assert_true_values(ms: Iterable[Measurement]) -> None:
