@@ -161,14 +161,15 @@ class _OutputServant:
 
 
 def make_output_servant(clock: Any, plugin_cls: type, config: Any, name: str, vessel_id: str,
-                        options: dict[str, Any], files: list[str] | None) -> _OutputServant:
+                        options: dict[str, Any], files: list[str] | None, config_dir: str) -> _OutputServant:
     """(in the child) The plugin made again there, given the files its predecessor
-    wrote."""
+    wrote; paths in its configuration (a zenoh output's TLS files) are relative to the
+    configuration file's folder, as in the parent."""
     from .plugin import PluginContext  # (here: the child imports what it needs only)
 
-    health = ComponentHealth(name, "output", getattr(config, "type", ""), clock)
+    health = ComponentHealth(name, "output", config.type, clock)
     ctx = PluginContext(name=name, clock=clock, health=health, publish=lambda rec: None,
-                        vessel_id=vessel_id, options=options)
+                        vessel_id=vessel_id, options=options, config_dir=Path(config_dir))
     plugin = plugin_cls(config, ctx)
     if files and isinstance(getattr(plugin, "files", None), list):
         plugin.files.extend(Path(f) for f in files)
@@ -255,7 +256,7 @@ class ProcessOutput:
                     if isinstance(v, (str, int, float, bool, type(None)))}
             files = None if self.files is None else [str(f) for f in self.files]
             await self.child.start((type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id,
-                                    opts, files), "output")
+                                    opts, files, str(self.plugin.ctx.config_dir)), "output")
         await self._call("open")
 
     async def started(self) -> bool:

@@ -14,6 +14,7 @@ estimates are.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from .childmain import CallFailed
@@ -135,10 +136,12 @@ class _CoreServant:
 
 
 def make_core_servant(clock: Any, plugin_cls: type[EstimatorPlugin], config: Any, name: str,
-                      vessel_id: str) -> _CoreServant:
-    """(in the child) The plugin made again there, and its core."""
-    health = ComponentHealth(name, "estimator", getattr(config, "type", ""), clock)
-    ctx = PluginContext(name=name, clock=clock, health=health, publish=lambda rec: None, vessel_id=vessel_id)
+                      vessel_id: str, config_dir: str) -> _CoreServant:
+    """(in the child) The plugin made again there, and its core; paths in its
+    configuration are relative to the configuration file's folder, as in the parent."""
+    health = ComponentHealth(name, "estimator", config.type, clock)
+    ctx = PluginContext(name=name, clock=clock, health=health, publish=lambda rec: None, vessel_id=vessel_id,
+                        config_dir=Path(config_dir))
     return _CoreServant(plugin_cls(config, ctx).make_core())
 
 
@@ -171,7 +174,8 @@ class ProcessRunner:
     async def start(self) -> None:
         if self.child.alive:
             return
-        args = (type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id)
+        args = (type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id,
+                str(self.plugin.ctx.config_dir))
         try:
             await self.child.start(args, "worker")
         except RuntimeError as exc:

@@ -251,3 +251,22 @@ def test_a_childs_logged_exception_reaches_the_parent_with_its_traceback():
     ((name, level, text),) = collect.take()
     assert (name, level) == ("edged.test.child", logging.ERROR)
     assert text.startswith("step failed\nTraceback") and "KeyError: 'missing'" in text
+
+
+async def test_a_plugin_in_a_process_resolves_paths_from_the_configuration_files_folder(registry, tmp_path):
+    """A zenoh output's TLS files are named relative to the configuration file: in its
+    process the plugin must see the same folder as in the loop, not the working one."""
+    etc = tmp_path / "etc" / "edged"
+    etc.mkdir(parents=True)
+    data = {"outputs": {"f": {"type": "file", "worker": "process", "path": str(tmp_path / "f.txt")}}}
+    cfg = parse_config(data, registry, config_dir=etc)
+    cfg.path = etc / "edged.toml"  # (as load_config sets it)
+    rt = Runtime(cfg, registry, ManualClock(100.0), replay=True, restart=RestartPolicy(initial=0.01), sleep=_no_wait)
+    host = rt.outputs[0]
+    await rt.start()
+    try:
+        await wait_for(lambda: host.opened and "config_dir" in host.health.info)
+        assert host.health.info["pid"] != os.getpid()
+        assert host.health.info["config_dir"] == str(etc)
+    finally:
+        await rt.stop()

@@ -297,6 +297,7 @@ class FileOutput(OutputPlugin):
         self._line("open")
         self.ctx.health.set_state("writing")
         self.ctx.health.info["pid"] = os.getpid()
+        self.ctx.health.info["config_dir"] = str(self.ctx.config_dir)
         self.ctx.log.info("event=file-output-open pid=%d", os.getpid())
 
     def write(self, batch: list[Any]) -> None:
