@@ -32,6 +32,7 @@ import pickle
 import signal
 import threading
 import time
+import weakref
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from multiprocessing.reduction import ForkingPickler
@@ -112,8 +113,18 @@ class ChildProcess:
 
     @property
     def alive(self) -> bool:
-        """Started, not stopped, and still running."""
-        return self.process is not None and self.process.is_alive()
+        """Started, not stopped, and still running (not while a thread waits for it to
+        end: the receiver after its pipe ended, or the stop)."""
+        p = self.process
+        if p is None:
+            return False
+        lock = _waiting(p)
+        if not lock.acquire(blocking=False):
+            return False
+        try:
+            return p.is_alive()
+        finally:
+            lock.release()
 
     @property
     def pending(self) -> deque[_Call]:
@@ -201,7 +212,7 @@ class ChildProcess:
                 call = pending.popleft()
                 link.answered = time.monotonic()
             _to_loop(loop, self._answered, call.future, answer)
-        p.join(1.0)
+        _join(p, 1.0)
         why = ChildDied(link.why or f"{self.name}'s process died (exit code {p.exitcode})")
         with self._lock:  # no call is queued behind this: it would wait for ever
             link.dead = True
@@ -268,7 +279,7 @@ class ChildProcess:
             self._writer.submit(_send, conn, stop).result(STOP_WAIT)
         except TimeoutError:
             pass
-        p.join(max(0.0, end - time.monotonic()))
+        _join(p, max(0.0, end - time.monotonic()))
         _reap(p, None)
 
     def kill_now(self) -> None:
@@ -322,11 +333,34 @@ def sigkill(p: Any) -> None:
 def _reap(p: Any, conn: Any) -> None:
     """The one way a child ends for good: killed if still alive, waited for; its pipe
     closed when no receiver owns it (the receiver closes its own at the end)."""
-    if p.is_alive():
-        sigkill(p)
-    p.join(STOP_WAIT)
+    with _waiting(p):
+        if p.is_alive():
+            sigkill(p)
+        p.join(STOP_WAIT)
     if conn is not None:
         try:
             conn.close()
         except OSError:
             pass
+
+
+#: One lock per child process around every wait for it (`join`, `is_alive`): the
+#: receiver thread, the stop and the loop may look at one child at once, and
+#: multiprocessing's wait is not thread-safe (the loser of two `waitpid`s sees a live
+#: child with no exit code, and could signal a pid already reaped).
+_WAIT_LOCKS: "weakref.WeakKeyDictionary[Any, threading.Lock]" = weakref.WeakKeyDictionary()
+_WAIT_LOCKS_GUARD = threading.Lock()
+
+
+def _waiting(p: Any) -> threading.Lock:
+    with _WAIT_LOCKS_GUARD:
+        lock = _WAIT_LOCKS.get(p)
+        if lock is None:
+            lock = _WAIT_LOCKS[p] = threading.Lock()
+        return lock
+
+
+def _join(p: Any, timeout: float) -> None:
+    """Wait up to `timeout` s for a child to end, alone."""
+    with _waiting(p):
+        p.join(timeout)
