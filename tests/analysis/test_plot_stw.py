@@ -14,7 +14,7 @@ import argparse
 import math
 import random
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 import pytest
@@ -65,19 +65,6 @@ def stw_estimates(name: str, seed: int, n: int = N, sigma: float = 0.1) -> list[
             )
         )
     return out
-
-
-@pytest.fixture
-def mcap(make_rig, tmp_path) -> Callable[..., Path]:
-    def write(records: Sequence[Any], name: str = "voyage.mcap") -> Path:
-        path = tmp_path / name
-        rig = make_rig(path=str(path))
-        rig.open()
-        rig.rec.write(list(records))
-        rig.close()
-        return path
-
-    return write
 
 
 @pytest.fixture

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import pytest
-from mcap.writer import Writer
 from mcap_rig import T0, write_recording
 
 from edged.records import Estimate, Measurement
@@ -26,22 +25,8 @@ from edged.recordings import (
     recording_reader,
 )
 from edged.registry import Registry
+from mcap_rig import foreign_mcap
 from edged_mcap.recordings import RECORDINGS
-
-
-def _foreign(path: Path, messages: list[tuple[str, bytes]]) -> Path:
-    """An MCAP file with JSON channels written by the mcap library (not by edged)."""
-    with open(path, "wb") as f:
-        w = Writer(f)
-        w.start()
-        sid = w.register_schema("x", "jsonschema", b"{}")
-        ids: dict[str, int] = {}
-        for i, (topic, data) in enumerate(messages):
-            if topic not in ids:
-                ids[topic] = w.register_channel(topic, "json", sid)
-            w.add_message(ids[topic], 1_732_350_000_000_000_000 + i, data, 0)
-        w.finish()
-    return path
 
 
 def test_the_installed_mcap_reader_is_found_and_gives_topic_schema_time_and_payload(tmp_path):
@@ -61,7 +46,7 @@ def test_the_installed_mcap_reader_is_found_and_gives_topic_schema_time_and_payl
 
 def test_payloads_are_decoded_as_the_standard_library_decodes_them(tmp_path):
     huge = b"1" + b"0" * 400  # JSON, but beyond any float: orjson refuses it
-    path = _foreign(tmp_path / "f.mcap", [
+    path = foreign_mcap(tmp_path / "f.mcap", [
         ("/a", b'{"x": 1.5, "n": [1, 2]}'),
         ("/a", b'{"x": NaN}'),  # the standard library's JSON, not RFC 8259's
         ("/a", b'{"x": %s}' % huge),

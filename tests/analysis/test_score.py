@@ -30,21 +30,6 @@ DEG = math.pi / 180.0
 
 # -- helpers ---------------------------------------------------------------------------
 @pytest.fixture
-def mcap(make_rig, tmp_path) -> Callable[..., Path]:
-    """Write records into tmp_path/<name> with the recorder; return the path."""
-
-    def write(records: Sequence[Any], name: str = "voyage.mcap", **cfg: Any) -> Path:
-        path = tmp_path / name
-        rig = make_rig(path=str(path), **cfg)
-        rig.open()
-        rig.rec.write(list(records))
-        rig.close()
-        return path
-
-    return write
-
-
-@pytest.fixture
 def truth_csv(tmp_path) -> Callable[..., Path]:
     """Write a truth table from columns (t first); extra raw lines appended as given."""
 

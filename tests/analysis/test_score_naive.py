@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Iterable
 
 import numpy as np
 import pytest
@@ -28,16 +28,9 @@ VDR = "/meas/current/vdr"
 
 
 @pytest.fixture
-def mcap(make_rig, tmp_path) -> Callable[..., Path]:
-    def write(records: Sequence[Any], name: str = "voyage.mcap") -> Path:
-        path = tmp_path / name
-        rig = make_rig(path=str(path))
-        rig.open()
-        rig.rec.write(sorted(records, key=lambda r: r.t))
-        rig.close()
-        return path
-
-    return write
+def mcap(mcap: Callable[..., Path]) -> Callable[..., Path]:
+    """The analysis tests' recording, its records in time order (hand-made here)."""
+    return lambda records, **kw: mcap(sorted(records, key=lambda r: r.t), **kw)
 
 
 @pytest.fixture

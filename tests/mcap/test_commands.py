@@ -12,20 +12,13 @@ from pathlib import Path
 import pytest
 
 from edged.cli import main as cli
-from edged.records import Estimate, Measurement
+from edged.records import Estimate
+from mcap_rig import voyage_with_a_log_gap
 
 
 @pytest.fixture
-def recording(make_rig, tmp_path, sample) -> Path:
-    path = tmp_path / "voyage.mcap"
-    rig = make_rig(path=str(path))
-    rig.open()
-    recs = sample(seconds=5)
-    # A 30 s silence of the log, for the gap report.
-    recs += [Measurement("water_speed", "log1", 1_732_350_000.0 + s, {"stw_long": 5.0}) for s in (0, 1, 31, 32)]
-    rig.rec.write(recs)
-    rig.close()
-    return path
+def recording(tmp_path) -> Path:
+    return voyage_with_a_log_gap(tmp_path / "voyage.mcap")
 
 
 def test_inspect_lists_channels_counts_rates_span_and_gaps(recording, capsys):

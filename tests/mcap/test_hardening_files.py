@@ -35,6 +35,7 @@ from edged_mcap.reading import MAGIC, NoRecords, ReadReport, iter_messages, iter
 from edged_mcap.logs import MCAP
 from edged_mcap.recovery import recover
 from edged_mcap.stats import file_stats
+from mcap_rig import foreign_mcap
 
 _CHUNK = 0x06
 _HEADER = 0x01
@@ -358,23 +359,9 @@ def test_replay_of_a_file_holding_only_the_magic_exits_2_like_an_empty_one(tmp_p
 
 
 # -- foreign payloads: what plot and export flatten --------------------------------------
-def _foreign(path: Path, messages: list[tuple[str, bytes]]) -> Path:
-    with open(path, "wb") as f:
-        w = Writer(f)
-        w.start()
-        sid = w.register_schema("x", "jsonschema", b"{}")
-        ids: dict[str, int] = {}
-        for i, (topic, data) in enumerate(messages):
-            if topic not in ids:
-                ids[topic] = w.register_channel(topic, "json", sid)
-            w.add_message(ids[topic], 1_732_350_000_000_000_000 + i * 10**8, data, 0)
-        w.finish()
-    return path
-
-
 def test_plot_data_skips_numbers_no_float_holds_and_json_nested_too_deep(tmp_path):
     huge = "1" + "0" * 400  # a JSON integer: valid, but beyond any float
-    path = _foreign(
+    path = foreign_mcap(
         tmp_path / "f.mcap",
         [
             ("/est/stw", b'{"stw": %s, "sog": 2.0}' % huge.encode()),
@@ -386,6 +373,7 @@ def test_plot_data_skips_numbers_no_float_holds_and_json_nested_too_deep(tmp_pat
             ("/est/draft", b'{"marks": {"fore": {"mean": %s}}}' % huge.encode()),
             ("/est/manoeuvre", b"[" * 100_000 + b"]" * 100_000),
         ],
+        step_ns=10**8,
     )
     data = collect(path)
     speed = data.panel("speed")

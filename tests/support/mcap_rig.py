@@ -75,3 +75,33 @@ def sample_records(seconds: int = 3, seed: int = 1) -> list[Any]:
             out.append(Estimate("draft", "draft", t, {"marks": {"fore": {"mean": 8.0}, "aft": {"mean": 8.5}}, "mean_draft": 8.25, "trim": 0.5, "list": 0.0}))
         out.append(HealthRecord(T0 + s, {"t": T0 + s, "outputs": {"rec": {"state": "recording"}}}))
     return out
+
+
+def voyage_with_a_log_gap(path: Path) -> Path:
+    """A 5-s sample voyage recorded by edged, with a Doppler log that is silent for
+    30 s (a gap for `inspect`, a line of `plot`'s speed panel)."""
+    rig = make_rig(path=str(path))
+    rig.open()
+    recs = sample_records(seconds=5)
+    recs += [Measurement("water_speed", "log1", 1_732_350_000.0 + s, {"stw_long": 5.0}) for s in (0, 1, 31, 32)]
+    rig.rec.write(recs)
+    rig.close()
+    return path
+
+
+def foreign_mcap(path: Path, messages: Sequence[tuple[str, bytes]], step_ns: int = 1) -> Path:
+    """An MCAP file with JSON channels written by the mcap library (not by edged):
+    message i logged `step_ns` × i after 2024-11-23T08:20Z."""
+    from mcap.writer import Writer
+
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("x", "jsonschema", b"{}")
+        ids: dict[str, int] = {}
+        for i, (topic, data) in enumerate(messages):
+            if topic not in ids:
+                ids[topic] = w.register_channel(topic, "json", sid)
+            w.add_message(ids[topic], 1_732_350_000_000_000_000 + i * step_ns, data, 0)
+        w.finish()
+    return path
