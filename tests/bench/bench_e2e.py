@@ -130,9 +130,10 @@ from dataclasses import dataclass, field
 from functools import reduce
 from operator import xor
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 from procstat import TICK, rss as _rss, tree  # noqa: E402  (this folder)
+from benchargs import names_of  # noqa: E402  (this folder)
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
@@ -1064,17 +1065,6 @@ PARTS = ("replay", "live", "latency")
 LOADS = ("idle", "reference")
 
 
-def _names(choices: Sequence[str]) -> Callable[[str], list[str]]:
-    def parse(text: str) -> list[str]:
-        out = [s.strip() for s in text.split(",") if s.strip()]
-        bad = [s for s in out if s not in choices]
-        if bad:
-            raise argparse.ArgumentTypeError(f"unknown {', '.join(bad)} (choose from {', '.join(choices)})")
-        return out
-
-    return parse
-
-
 def _cpus(text: str) -> set[int]:
     try:
         return {int(x) for x in text.split(",") if x.strip()}
@@ -1095,7 +1085,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--prefix", help=argparse.SUPPRESS)
     ap.add_argument("--wait-alive", type=float, default=0.0, help=argparse.SUPPRESS)
     ap.add_argument("--seconds", type=float, default=60.0, help=argparse.SUPPRESS)
-    ap.add_argument("--parts", type=_names(PARTS), default=",".join(PARTS), help="what to measure")
+    ap.add_argument("--parts", type=names_of(PARTS), default=",".join(PARTS), help="what to measure")
     ap.add_argument("--scenario", default="demo", help="simulated voyage to replay (the reference suite: demo)")
     ap.add_argument("--duration", type=float, default=3600.0, help="seconds of data to replay")
     ap.add_argument("--seed", type=int, default=1, help="simulator seed of the replayed voyage")
@@ -1105,7 +1095,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--no-sim-baseline", action="store_true", help="live: do not measure the simulator alone")
     ap.add_argument("--latency-seconds", type=float, default=60.0, help="latency: seconds of probes per load")
     ap.add_argument("--latency-rate", type=float, default=50.0, help="latency: probes per second (idle daemon)")
-    ap.add_argument("--latency-loads", type=_names(LOADS), default=",".join(LOADS),
+    ap.add_argument("--latency-loads", type=names_of(LOADS), default=",".join(LOADS),
                     help="latency: idle `edged run`, and/or `edged demo` at the reference load")
     ap.add_argument("--latency-reference-rate", type=float, default=5.0,
                     help="latency under load: probes per second (the demo publishes 10 Hz per topic)")

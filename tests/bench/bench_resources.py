@@ -119,6 +119,7 @@ from operator import xor
 from pathlib import Path
 
 from procstat import rss as _rss, tree  # noqa: E402  (this folder)
+from benchargs import names_of  # noqa: E402  (this folder)
 from typing import BinaryIO, Callable, Sequence
 
 EDGED = [sys.executable, "-m", "edged.cli"]
@@ -679,17 +680,6 @@ def _extra(text: str) -> tuple[str, int]:
     return name, parse_size(size)
 
 
-def _names(choices: Sequence[str]) -> Callable[[str], list[str]]:
-    def parse(text: str) -> list[str]:
-        out = [s.strip() for s in text.split(",") if s.strip()]
-        bad = [s for s in out if s not in choices]
-        if bad:
-            raise argparse.ArgumentTypeError(f"unknown {', '.join(bad)} (choose from {', '.join(choices)})")
-        return out
-
-    return parse
-
-
 def _interrupt(signum: int, frame: object) -> None:
     """SIGTERM as Ctrl-C: the current run is killed, inputs removed, the table printed."""
     raise KeyboardInterrupt(f"signal {signum}")
@@ -698,9 +688,9 @@ def _interrupt(signum: int, frame: object) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    ap.add_argument("--cases", type=_names(list(CASES)), default=",".join(CASES), help="classes of input to run")
+    ap.add_argument("--cases", type=names_of(list(CASES)), default=",".join(CASES), help="classes of input to run")
     ap.add_argument("--sizes", type=sizes, default="64M,512M", help="huge line sizes (0 always runs too)")
-    ap.add_argument("--formats", type=_names(list(FORMATS)), default=",".join(FORMATS),
+    ap.add_argument("--formats", type=names_of(list(FORMATS)), default=",".join(FORMATS),
                     help="text formats for the huge line")
     ap.add_argument("--fill", choices=("data", "junk"), default="data",
                     help="huge line: its format's data field running on, or one repeated byte")
