@@ -18,6 +18,7 @@ from core_dummies import ListOutput
 from edged.clock import ManualClock
 from edged.config import parse_config
 from edged.records import Estimate, HealthRecord, Measurement
+from edged.childproc import ChildGone
 from edged.runtime import Runtime
 from edged.supervisor import RestartPolicy
 
@@ -222,6 +223,8 @@ async def test_a_stop_while_a_dead_output_waits_for_its_restart_counts_the_queue
     os.kill(host.plugin.pid, signal.SIGKILL)
     rt.router.publish(_yaw(103.0, 0.1))  # finds it dead: the output goes to its backoff
     await wait_for(lambda: host.health.restarts == 1)
+    with pytest.raises(ChildGone):  # a final write to no process is refused aloud
+        host.plugin.write([_yaw(200.0, 0.1)])
     for i in range(4, 9):
         rt.router.publish(_yaw(100.0 + i, 0.1))
     await rt.stop()
