@@ -1,9 +1,10 @@
 """The TLS fleet's test kit: a throwaway PKI, the shore router, child processes, sessions.
 
-Shared by test_fleet_tls.py (three daemons behind the shore router) and
-test_ship_to_shore.py (a ship's router linked to it): one definition of each, imported
-from here (`tests/support` is on pytest's path) rather than one test module loading
-the other by its path.
+Shared by test_fleet_tls.py (three daemons behind the shore router),
+test_ship_to_shore.py (a ship's router linked to it) and test_router_acl.py (the shipped
+access control, rule by rule): one definition of each, imported from here
+(`tests/support` is on pytest's path) rather than one test module loading another by
+its path.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import subprocess
 import sys
 import threading
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator, Protocol, Sequence, TypeVar
 
 import json5
 import pytest
@@ -58,7 +59,7 @@ class Pki:
 @pytest.fixture(scope="module")
 def pki(tmp_path_factory: pytest.TempPathFactory) -> Pki:
     """Made by deploy/zenoh/make-test-certs.sh, as a user makes them. Skipped only where
-    openssl is not installed (as test_router_acl.py)."""
+    openssl is not installed."""
     if shutil.which("openssl") is None:
         pytest.skip("cannot make TLS certificates: openssl is not installed")
     p = Pki(tmp_path_factory.mktemp("pki"))
@@ -97,16 +98,19 @@ def add_vessel(acl: dict[str, Any], vessel: str, like: str = "vessel-1") -> None
     acl["policies"].append({"rules": [r["id"] for r in new] + shared, "subjects": [vessel]})
 
 
-def router_config(pki: Pki, endpoint: str, path: Path, *, acl: bool) -> Path:
+def router_config(pki: Pki, endpoint: str, path: Path, *, acl: bool,
+                  extra_vessels: Sequence[str] = ("vessel-3",)) -> Path:
     """The shipped file with its certificate paths and listen endpoint replaced, and
-    vessel-3 added to its access control (switched off when not `acl`)."""
+    `extra_vessels` added to its access control (switched off when not `acl`); with
+    `extra_vessels=()` its access control is the shipped one."""
     cfg = json5.loads(SHIPPED.read_text())
     tls = cfg["transport"]["link"]["tls"]
     assert set(tls) >= {"root_ca_certificate", "listen_certificate", "listen_private_key"}
     tls.update(root_ca_certificate=pki.ca, listen_certificate=pki.cert("router"),
                listen_private_key=pki.key("router"))
     cfg["listen"]["endpoints"] = [endpoint]
-    add_vessel(cfg["access_control"], "vessel-3")
+    for vessel in extra_vessels:
+        add_vessel(cfg["access_control"], vessel)
     cfg["access_control"]["enabled"] = acl
     path.write_text(json.dumps(cfg, indent=2))
     return path
@@ -219,9 +223,17 @@ class Seen:
         with self._cv:
             return list(self.items)
 
-    def has(self, key: str, payload: str, kind: str = "put") -> bool:
-        with self._cv:
+    def _matches(self, key: str, payload: str | None, kind: str | None) -> bool:
+        """With the lock held. A `payload` or `kind` of None matches any."""
+        if payload is not None and kind is not None:
             return (key, kind, payload) in self._index
+        return any(k == key and (kind is None or s == kind) and (payload is None or p == payload)
+                   for k, s, p in self.items)
+
+    def has(self, key: str, payload: str | None = None, kind: str | None = "put") -> bool:
+        """Whether such a sample came; `payload=None` / `kind=None`: any payload / kind."""
+        with self._cv:
+            return self._matches(key, payload, kind)
 
     def wait_for(self, done: Callable[[list[tuple[str, str, str]]], bool], what: str,
                  context: Callable[[], str] = lambda: "") -> None:
@@ -230,9 +242,9 @@ class Seen:
             if not self._cv.wait_for(lambda: done(self.items), WAIT):
                 raise AssertionError(f"never arrived: {what}; last seen {self.items[-5:]}\n{context()}")
 
-    def wait(self, key: str, payload: str, kind: str = "put") -> None:
-        item = (key, kind, payload)
-        self.wait_for(lambda _: item in self._index, str(item))
+    def wait(self, key: str, payload: str | None = None, kind: str | None = "put") -> None:
+        """Until `has(key, payload, kind)`."""
+        self.wait_for(lambda _: self._matches(key, payload, kind), str((key, kind, payload)))
 
 
 def wait_matching(pub: zenoh.Publisher) -> None:
@@ -244,3 +256,29 @@ def wait_matching(pub: zenoh.Publisher) -> None:
             assert matched.wait(WAIT), f"no subscriber ever matched {pub.key_expr}"
     finally:
         listener.undeclare()
+
+
+# -- the shore router and a test module's sessions -------------------------------------------
+class _Closable(Protocol):
+    def close(self) -> None: ...
+
+
+N = TypeVar("N", bound=_Closable)
+
+
+def serve_net(pki: Pki, folder: Path, make_net: Callable[[Pki, str], N], *, acl: bool,
+              extra_vessels: Sequence[str] = ("vessel-3",)) -> Iterator[N]:
+    """For a module-scoped fixture: the shore router (`router_config` in `folder`) on a
+    free port, and `make_net(pki, endpoint)` (a test module's sessions); it yields those,
+    then closes them and stops the router."""
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    router = start_router(router_config(pki, endpoint, folder / "router.json5", acl=acl,
+                                        extra_vessels=extra_vessels))
+    try:
+        net = make_net(pki, endpoint)
+        try:
+            yield net
+        finally:
+            net.close()
+    finally:
+        router.stop()

@@ -41,8 +41,8 @@ import zenoh
 
 from edged.registry import Registry
 from zenoh_tls import pki  # noqa: F401 (the fixture)
-from zenoh_tls import (DASHBOARD, PYTHON, REPO, ROGUES, VESSELS, WAIT, Child, Pki, Seen, free_port, router_config,
-                       start_router, tls_session, wait_matching)
+from zenoh_tls import (DASHBOARD, PYTHON, REPO, ROGUES, VESSELS, WAIT, Child, Pki, Seen, serve_net, tls_session,
+                       wait_matching)
 
 #: Seconds of the simulated voyage each daemon replays in real time: longer than this
 #: file runs, and the daemons end by themselves should a test run leave them behind.
@@ -109,29 +109,16 @@ class Net:
             s.close()
 
 
-def _net(pki: Pki, folder: Path, *, acl: bool) -> Iterator[Net]:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    router = start_router(router_config(pki, endpoint, folder / "router.json5", acl=acl))
-    try:
-        net = Net(pki, endpoint)
-        try:
-            yield net
-        finally:
-            net.close()
-    finally:
-        router.stop()
-
-
 @pytest.fixture(scope="module")
 def acl_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
     """The shipped access control, vessel-3 added."""
-    yield from _net(pki, tmp_path_factory.mktemp("acl"), acl=True)
+    yield from serve_net(pki, tmp_path_factory.mktemp("acl"), Net, acl=True)
 
 
 @pytest.fixture(scope="module")
 def open_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
     """The same file with access control switched off: the probes' own check."""
-    yield from _net(pki, tmp_path_factory.mktemp("open"), acl=False)
+    yield from serve_net(pki, tmp_path_factory.mktemp("open"), Net, acl=False)
 
 
 # -- the fleet: three edged daemons -------------------------------------------------------

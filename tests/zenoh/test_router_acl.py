@@ -33,12 +33,6 @@ import asyncio
 import io
 import itertools
 import json
-import os
-import queue
-import shutil
-import subprocess
-import sys
-import threading
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -49,165 +43,10 @@ import zenoh
 from edged.records import Estimate, HealthRecord
 from edged_zenoh.commands import fleet_main
 from edged_zenoh.output import ZenohOutput, ZenohOutputConfig
+from zenoh_tls import pki  # noqa: F401 (the fixture)
+from zenoh_tls import REPO, WAIT, Pki, Seen, free_port, serve_net, start_router, tls_session, wait_matching
 
-REPO = Path(__file__).resolve().parents[2]
-SHIPPED = REPO / "deploy" / "zenoh" / "router-tls.json5"
-WAIT = 20.0  # seconds: a safety net, never the synchronisation itself
 T0 = 1_732_350_000.0
-CLIENTS = ("vessel-1", "vessel-2", "fleet-dashboard")
-
-
-# -- a throwaway PKI ------------------------------------------------------------------
-class Pki:
-    """File paths of a CA, a router certificate for 127.0.0.1/localhost, client certificates
-    (common name = the name), and one `rogue` client certificate of another CA."""
-
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
-        self.ca = folder / "ca.pem"
-
-    def cert(self, name: str) -> str:
-        return str(self.folder / f"{name}.pem")
-
-    def key(self, name: str) -> str:
-        return str(self.folder / f"{name}.key")
-
-
-MAKE_CERTS = Path(__file__).resolve().parents[2] / "deploy" / "zenoh" / "make-test-certs.sh"
-
-
-@pytest.fixture(scope="module")
-def pki(tmp_path_factory: pytest.TempPathFactory) -> Pki:
-    """Made by deploy/zenoh/make-test-certs.sh (the script a user runs): the site's CA,
-    the router and the clients; then a second CA's `fleet-dashboard`, kept as `rogue`.
-    Skipped only where openssl is not installed."""
-    if shutil.which("openssl") is None:
-        pytest.skip("cannot make TLS certificates: openssl is not installed")
-    p = Pki(tmp_path_factory.mktemp("pki"))
-    subprocess.run(["sh", str(MAKE_CERTS), str(p.folder), *CLIENTS], check=True, capture_output=True, timeout=120)
-    other = p.folder / "other-site"
-    subprocess.run(["sh", str(MAKE_CERTS), str(other), "fleet-dashboard"], check=True, capture_output=True,
-                   env={**os.environ, "CA_NAME": "some other CA"}, timeout=120)
-    for src, dst in (("ca", "rogue-ca"), ("fleet-dashboard", "rogue")):
-        for ext in ("pem", "key"):
-            shutil.copy(other / f"{src}.{ext}", p.folder / f"{dst}.{ext}")
-    return p
-
-
-# -- the router and its clients ---------------------------------------------------------
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class RouterProc:
-    """`edged router --zenoh-config FILE` as a user runs it; stdout and stderr read by threads."""
-
-    def __init__(self, config: Path) -> None:
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "edged.cli", "router", "--zenoh-config", str(config)],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
-            env=dict(os.environ, PYTHONUNBUFFERED="1"),
-        )
-        self.lines: queue.Queue[str | None] = queue.Queue()
-        self.stderr: list[str] = []
-        threading.Thread(target=self._pump, args=(self.proc.stdout, self.lines.put), daemon=True).start()
-        threading.Thread(target=self._pump, args=(self.proc.stderr, self.stderr.append), daemon=True).start()
-        try:
-            line = self.lines.get(timeout=WAIT)
-        except queue.Empty:
-            line = None
-        if line is None or "listening on" not in line:
-            self.stop()
-            raise AssertionError(f"edged router did not start: {line!r}; stderr: {''.join(self.stderr)[-3000:]}")
-
-    @staticmethod
-    def _pump(stream: Any, put: Callable[[Any], None]) -> None:
-        for line in stream:
-            put(line)
-        put(None)
-
-    def stop(self) -> None:
-        for ask in (self.proc.terminate, self.proc.kill):
-            if self.proc.poll() is not None:
-                break
-            ask()
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                continue
-
-
-def router_config(pki: Pki, endpoint: str, tmp: Path, *, acl: bool = True) -> Path:
-    """The shipped file with its certificate paths and listen endpoint replaced."""
-    cfg = json5.loads(SHIPPED.read_text())
-    tls = cfg["transport"]["link"]["tls"]
-    assert set(tls) >= {"root_ca_certificate", "listen_certificate", "listen_private_key"}
-    tls.update(root_ca_certificate=str(pki.ca), listen_certificate=pki.cert("router"),
-               listen_private_key=pki.key("router"))
-    cfg["listen"]["endpoints"] = [endpoint]
-    if not acl:
-        cfg["access_control"]["enabled"] = False
-    path = tmp / ("router-acl.json5" if acl else "router-open.json5")
-    path.write_text(json.dumps(cfg, indent=2))
-    return path
-
-
-def client_tls(pki: Pki, name: str) -> dict[str, Any]:
-    return {"root_ca_certificate": str(pki.ca), "connect_certificate": pki.cert(name),
-            "connect_private_key": pki.key(name), "enable_mtls": True}
-
-
-def tls_client(pki: Pki, endpoint: str, name: str) -> zenoh.Session:
-    """A client session over TLS with the certificate `name`, no scouting."""
-    cfg = zenoh.Config()
-    for key, value in {
-        "mode": "client",
-        "connect/endpoints": [endpoint],
-        "listen/endpoints": [],
-        "scouting/multicast/enabled": False,
-        "scouting/gossip/enabled": False,
-        "transport/link/tls": client_tls(pki, name),
-    }.items():
-        cfg.insert_json5(key, json.dumps(value))
-    return zenoh.open(cfg)
-
-
-class Seen:
-    """(key, kind, payload) of every sample a callback got; zenoh calls it on its threads."""
-
-    def __init__(self) -> None:
-        self.items: list[tuple[str, str, str]] = []
-        self._cv = threading.Condition()
-
-    def __call__(self, sample: zenoh.Sample) -> None:
-        kind = "put" if sample.kind == zenoh.SampleKind.PUT else "delete"
-        with self._cv:
-            self.items.append((str(sample.key_expr), kind, sample.payload.to_bytes().decode(errors="replace")))
-            self._cv.notify_all()
-
-    def has(self, key: str | None = None, kind: str | None = None, payload: str | None = None) -> bool:
-        with self._cv:
-            return any((key is None or k == key) and (kind is None or s == kind) and (payload is None or p == payload)
-                       for k, s, p in self.items)
-
-    def wait(self, **match: str) -> None:
-        with self._cv:
-            assert self._cv.wait_for(lambda: self.has(**match), WAIT), f"never arrived: {match}; seen {self.items[-10:]}"
-
-
-def wait_matching(pub: zenoh.Publisher) -> None:
-    """Until the router has told the publisher of a matching subscriber."""
-    matched = threading.Event()
-    listener = pub.declare_matching_listener(lambda st: matched.set() if st.matching else None)
-    try:
-        if not pub.matching_status.matching:
-            assert matched.wait(WAIT), f"no subscriber ever matched {pub.key_expr}"
-    finally:
-        listener.undeclare()
 
 
 _tags = itertools.count()
@@ -243,7 +82,7 @@ class Net:
 
     def _setup(self, pki: Pki) -> None:
         for short, cert in self.NAMES.items():
-            self.s[short] = tls_client(pki, self.endpoint, cert)
+            self.s[short] = tls_session(pki, self.endpoint, cert)
         v1, v1b, v2, d2 = self.s["v1"], self.s["v1b"], self.s["v2"], self.s["d2"]
         self.keep += [
             d2.liveliness().declare_subscriber("vessel/**", self.d2_alive, history=True),
@@ -271,9 +110,9 @@ class Net:
 
     def reach(self, vessel: str) -> None:
         """A forecast from d1 seen by the vessel's forecast watcher (v1b or v2)."""
-        marker = tag("forecast")
-        self.s["d1"].put(f"vessel/{vessel}/env/current", marker)
-        (self.v1b_env if vessel == "vessel-1" else self.v2_data).wait(payload=marker)
+        key, marker = f"vessel/{vessel}/env/current", tag("forecast")
+        self.s["d1"].put(key, marker)
+        (self.v1b_env if vessel == "vessel-1" else self.v2_data).wait(key, marker)  # its only key
 
     def close(self) -> None:
         for d in self.keep:
@@ -282,29 +121,16 @@ class Net:
             s.close()
 
 
-def _net(pki: Pki, tmp: Path, acl: bool) -> Iterator[Net]:
-    endpoint = f"tls/127.0.0.1:{_free_port()}"
-    router = RouterProc(router_config(pki, endpoint, tmp, acl=acl))
-    try:
-        net = Net(pki, endpoint)
-        try:
-            yield net
-        finally:
-            net.close()
-    finally:
-        router.stop()
-
-
 @pytest.fixture(scope="module")
 def acl_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
-    """The shipped access control."""
-    yield from _net(pki, tmp_path_factory.mktemp("acl"), acl=True)
+    """The shipped access control (no vessel added)."""
+    yield from serve_net(pki, tmp_path_factory.mktemp("acl"), Net, acl=True, extra_vessels=())
 
 
 @pytest.fixture(scope="module")
 def open_net(pki: Pki, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Net]:
     """The shipped file with access control switched off: the probes' own check."""
-    yield from _net(pki, tmp_path_factory.mktemp("open"), acl=False)
+    yield from serve_net(pki, tmp_path_factory.mktemp("open"), Net, acl=False, extra_vessels=())
 
 
 def _replies(session: zenoh.Session, selector: str) -> list[tuple[str, str]]:
@@ -385,12 +211,12 @@ def test_edged_output_and_fleet_work_through_the_acl(acl_net: Net, pki: Pki, mak
     c = make_ctx("zenoh", "vessel-2")
     out = ZenohOutput(ZenohOutputConfig.model_validate({
         "type": "zenoh", "mode": "client", "listen": [], "connect": [acl_net.endpoint],
-        "tls": client_tls(pki, "vessel-2"),
+        "tls": pki.client_tls("vessel-2"),
     }), c.ctx)
     fleet_cfg = tmp_path / "fleet.json5"
     fleet_cfg.write_text(json.dumps({
         "mode": "client", "connect": {"endpoints": [acl_net.endpoint]},
-        "transport": {"link": {"tls": client_tls(pki, "fleet-dashboard")}},
+        "transport": {"link": {"tls": pki.client_tls("fleet-dashboard")}},
     }))
 
     async def scenario() -> tuple[int, str]:
@@ -415,10 +241,9 @@ def test_edged_output_and_fleet_work_through_the_acl(acl_net: Net, pki: Pki, mak
 
 @pytest.mark.parametrize(("cert", "connects"), [("site", True), ("another CA", False), ("none", False)])
 def test_only_a_site_certificate_connects(acl_net: Net, pki: Pki, cert: str, connects: bool) -> None:
-    tls: dict[str, Any] = {"root_ca_certificate": str(pki.ca)}
-    if cert != "none":
-        name = "fleet-dashboard" if cert == "site" else "rogue"  # both with that common name
-        tls.update(connect_certificate=pki.cert(name), connect_private_key=pki.key(name), enable_mtls=True)
+    tls: dict[str, Any] = {"root_ca_certificate": pki.ca}
+    if cert != "none":  # both with the common name fleet-dashboard
+        tls = pki.client_tls("fleet-dashboard", other=cert == "another CA")
     cfg = zenoh.Config()
     cfg.insert_json5("mode", '"client"')
     cfg.insert_json5("connect/endpoints", json.dumps([acl_net.endpoint]))
@@ -443,7 +268,7 @@ def dashboard_puts_vessel_data(net: Net) -> tuple[list[str], list[str]]:
     for key in keys:
         net.s["d1"].put(key, forged)
     net.sync("d1")
-    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged)]
+    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged, kind=None)]
 
 
 def dashboard_deletes_vessel_data(net: Net) -> tuple[list[str], list[str]]:
@@ -463,7 +288,7 @@ def dashboard_holds_a_liveliness_token(net: Net) -> tuple[list[str], list[str]]:
     finally:
         for t in tokens:
             t.undeclare()
-    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k)]
+    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k, kind=None)]
 
 
 def dashboard_answers_queries(net: Net) -> tuple[list[str], list[str]]:
@@ -489,7 +314,7 @@ def vessel_puts_another_vessels_data(net: Net) -> tuple[list[str], list[str]]:
     for key in keys:
         net.s["v1"].put(key, forged)
     net.sync("v1")
-    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged)]
+    return keys, [k for k in keys if net.d2_data.has(key=k, payload=forged, kind=None)]
 
 
 def vessel_puts_its_own_forecast(net: Net) -> tuple[list[str], list[str]]:
@@ -502,7 +327,7 @@ def vessel_puts_its_own_forecast(net: Net) -> tuple[list[str], list[str]]:
     net.reach("vessel-1")
     net.reach("vessel-2")
     watchers = (net.d2_data, net.v1b_env, net.v2_data)
-    return keys, [k for k in keys if any(w.has(key=k, payload=forged) for w in watchers)]
+    return keys, [k for k in keys if any(w.has(key=k, payload=forged, kind=None) for w in watchers)]
 
 
 def _payloads(sub: Any) -> list[str]:
@@ -552,7 +377,7 @@ def vessel_holds_a_foreign_liveliness_token(net: Net) -> tuple[list[str], list[s
     finally:
         for t in tokens:
             t.undeclare()
-    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k)]
+    return keys, [k for k in keys if k in alive or net.d2_alive.has(key=k, kind=None)]
 
 
 def vessel_answers_for_another_vessel(net: Net) -> tuple[list[str], list[str]]:
@@ -635,7 +460,7 @@ class Local:
         self.passwords = {u: secrets.token_hex(16) for u in USERS}
         users = folder / "local-users.txt"
         users.write_text("".join(f"{u}:{p}\n" for u, p in self.passwords.items()))
-        self.endpoint = f"tcp/127.0.0.1:{_free_port()}"
+        self.endpoint = f"tcp/127.0.0.1:{free_port()}"
         cfg = json5.loads(LOCAL_ROUTER.read_text())
         cfg["transport"]["auth"]["usrpwd"]["dictionary_file"] = str(users)
         cfg["listen"]["endpoints"] = [self.endpoint]
@@ -645,7 +470,7 @@ class Local:
         daemon["connect"]["endpoints"] = [self.endpoint]
         self.daemon_file = folder / "edged-local-auth.json5"
         self.daemon_file.write_text(json.dumps(daemon))
-        self.router = RouterProc(folder / "router.json5")
+        self.router = start_router(folder / "router.json5")
 
     def session(self, user: str | None, password: str | None = None) -> zenoh.Session:
         cfg = zenoh.Config()
