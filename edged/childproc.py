@@ -35,10 +35,12 @@ import time
 import weakref
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
+from multiprocessing import resource_tracker
 from multiprocessing.reduction import ForkingPickler
 from typing import Any, Callable
 
 from .childmain import CallFailed, Servant, serve
+from .signals import blocked_in_children
 
 __all__ = ["ChildProcess", "ChildDied", "ChildGone", "CallFailed", "forget", "sigkill", "START_TIMEOUT", "WATCHED"]
 
@@ -133,41 +135,66 @@ class ChildProcess:
 
     # -- start -------------------------------------------------------------------------
     async def start(self, args: tuple[Any, ...], role: str) -> None:
-        """Start a child (in a thread: it takes a while) and wait until its servant is
-        made; raises `ChildDied` when it died or did not answer in time, RuntimeError
-        when the servant could not be made (the child's message)."""
-        self._loop = loop = asyncio.get_running_loop()
-        p, conn, answer = await loop.run_in_executor(None, self._spawn, args)
-        self._emit(answer[-1])
-        if answer[0] != "ok":
-            raise RuntimeError(f"could not be made in its process: {answer[1]}")
-        self.on_report(answer[2])
-        self.process, self._conn = p, conn
-        self._link = link = _Link(dead=False)
-        link.answered = time.monotonic()
-        threading.Thread(target=self._receive, args=(conn, p, link), name=f"edged-{self.name}-recv",
-                         daemon=True).start()
-        self.log.info("%s=%s placement=process pid=%s", role, self.name, p.pid)
+        """Start a child and wait until its servant is made; raises `ChildDied` when it
+        died or did not answer in time, RuntimeError when the servant could not be
+        made (the child's message)."""
+        await self.launch(args, role)
 
-    def _spawn(self, args: tuple[Any, ...]) -> tuple[Any, Any, Answer]:
+    def launch(self, args: tuple[Any, ...], role: str) -> "asyncio.Future[None]":
+        """Start a child without waiting for it: calls submitted from now on queue
+        behind its start (the child takes them once its servant is made), so that an
+        owner goes on at once, as in the loop (a replay reads its first records while
+        the child imports its stack: issue 34's start-up). The future is done when the
+        servant is made; it fails as `start` raises, and so does every call queued
+        behind a start that failed. The process is started here, in the loop (a few
+        milliseconds: the interpreter's own start is the child's)."""
+        self._loop = loop = asyncio.get_running_loop()
         ctx = multiprocessing.get_context("spawn")
         parent, child = ctx.Pipe(duplex=True)
         p = ctx.Process(target=serve, args=(child, self.make, args, logging.getLogger().getEffectiveLevel()),
                         name=f"edged-{self.name}", daemon=True)
-        p.start()
+        # (multiprocessing's resource tracker, started at the first child, unblocks
+        # SIGINT and SIGTERM in the thread that starts it: it is started before)
+        resource_tracker.ensure_running()
+        with blocked_in_children():
+            p.start()
         child.close()
+        hello: asyncio.Future[None] = loop.create_future()
+        self.process, self._conn = p, parent
+        self._link = link = _Link(dead=False)
+        threading.Thread(target=self._receive, args=(parent, p, link, (hello, role)),
+                         name=f"edged-{self.name}-recv", daemon=True).start()
+        return hello
+
+    def _hello(self, conn: Any, p: Any, link: _Link) -> Answer | None:
+        """(the receiver thread) The child's first answer, its servant made or not;
+        None when it died or did not answer in time (`link.why` says which)."""
         timeout = max(self.watchdog, START_TIMEOUT)
         try:
-            if not parent.poll(timeout):
-                _reap(p, parent)
-                raise ChildDied(f"watchdog: {self.name}'s process did not start within {timeout:g} s; killed")
-            answer = parent.recv()
+            if conn.poll(timeout):
+                return conn.recv()  # type: ignore[no-any-return]
+            link.why = f"watchdog: {self.name}'s process did not start within {timeout:g} s; killed"
+            sigkill(p)
         except (EOFError, OSError):
-            _reap(p, parent)
-            raise ChildDied(f"{self.name}'s process died while starting (exit code {p.exitcode})") from None
-        if answer[0] != "ok":
-            _reap(p, parent)
-        return p, parent, answer
+            _join(p, 1.0)
+            link.why = f"{self.name}'s process died while starting (exit code {p.exitcode})"
+        return None
+
+    def _started(self, fut: "asyncio.Future[None]", answer: Answer | None, why: str | None, role: str,
+                 pid: int | None) -> None:
+        """(in the loop) The start's outcome onto its future."""
+        if answer is not None:
+            self._emit(answer[-1])
+        if fut.done():
+            return
+        if answer is None:
+            fut.set_exception(ChildDied(why or f"{self.name}'s process died while starting"))
+        elif answer[0] != "ok":
+            fut.set_exception(RuntimeError(f"could not be made in its process: {answer[1]}"))
+        else:
+            self.on_report(answer[2])
+            self.log.info("%s=%s placement=process pid=%s", role, self.name, pid)
+            fut.set_result(None)
 
     # -- calls -------------------------------------------------------------------------
     def submit(self, what: str, arg: Any = None, *, now: float | None = None, mono: float | None = None,
@@ -194,13 +221,21 @@ class ChildProcess:
         self._writer.submit(_send, conn, data)
         return fut
 
-    def _receive(self, conn: Any, p: Any, link: _Link) -> None:
-        """(the receiver thread) Answers onto their calls, in order; the watchdog; at
-        the end of the pipe, every call still waiting fails."""
+    def _receive(self, conn: Any, p: Any, link: _Link, start: tuple["asyncio.Future[None]", str]) -> None:
+        """(the receiver thread) The start's answer; then answers onto their calls, in
+        order; the watchdog; at the end of the pipe (or after a start that failed),
+        every call still waiting fails."""
         loop = self._loop
         assert loop is not None
         pending = link.pending
-        while True:
+        hello = self._hello(conn, p, link)
+        ok = hello is not None and hello[0] == "ok"
+        if hello is not None and not ok:
+            link.why = f"{self.name} could not be made in its process: {hello[1]}"
+        _to_loop(loop, self._started, start[0], hello, link.why, start[1], p.pid)
+        with self._lock:
+            link.answered = time.monotonic()  # the calls queued behind the start are due from now
+        while ok:
             try:
                 if not conn.poll(self._wait(link)):
                     self._watch(link, p)

@@ -10,6 +10,7 @@ import asyncio
 from collections import deque
 from typing import Any
 
+from .childmain import CallFailed
 from .childproc import forget
 from .clock import Clock
 from .health import ComponentHealth
@@ -44,6 +45,12 @@ class OutputHost:
             preferred_only=False,
             reorder_window=None,
         )
+
+    @property
+    def up(self) -> bool:
+        """Open in its place: in a process, once that has started and opened the
+        plugin (`opened` is set before: batches go behind the start)."""
+        return self.opened and self.plugin.up
 
     async def run(self) -> None:
         """Up to the placement's `depth` batches on their way (in a process: the next is
@@ -80,7 +87,11 @@ class OutputHost:
             if not batch:
                 continue  # woken: a write failed
             self._progressed()
-            fut = place.send(batch, clock.now(), clock.monotonic())
+            try:
+                fut = place.send(batch, clock.now(), clock.monotonic())
+            except Exception:  # (in the loop) the plugin raised: the batch is lost
+                count("dropped.write_failed", len(batch))
+                raise
             count("written", len(batch))
             if fut is not None:
                 fut.add_done_callback(done)
@@ -96,10 +107,20 @@ class OutputHost:
             self._progressed()
             return
         lost = sum(n for _, n in inflight)
+        if isinstance(exc, CallFailed):  # the plugin raised on this batch; the process goes on
+            self.health.count("dropped.write_failed", inflight[0][1])
+            for f, n in list(inflight)[1:]:  # each one behind it is written or refused in its turn
+                f.add_done_callback(lambda f, n=n: self._refused(f, n))
         for f, _ in inflight:  # their failures are this one's
             forget(f)
         inflight.clear()
         raise self.plugin.failed(exc, lost)
+
+    def _refused(self, fut: asyncio.Future[Any], n: int) -> None:
+        """A write sent behind one that failed, refused by the plugin too (behind an
+        open that failed): its records counted lost."""
+        if not fut.cancelled() and isinstance(fut.exception(), CallFailed):
+            self.health.count("dropped.write_failed", n)
 
     def progress(self) -> "asyncio.Future[None]":
         """Done when the output next takes a batch from its queue (replay waits on it

@@ -31,6 +31,7 @@ from .childmain import CallFailed
 from .childproc import WATCHED, ChildDied, ChildGone, ChildProcess, forget
 from .clock import Clock
 from .health import ComponentHealth
+from .plugin import OutputPlugin
 
 __all__ = ["LoopOutput", "ProcessOutput", "place_output", "PROCESS_BATCH", "PROCESS_DEPTH"]
 
@@ -82,6 +83,11 @@ class LoopOutput:
         await self.plugin.open()
         self._open = True
 
+    @property
+    def up(self) -> bool:
+        """Open."""
+        return self._open
+
     async def started(self) -> bool:
         """(nothing starts in the background here)"""
         return False
@@ -123,9 +129,20 @@ class _OutputServant:
         self.health = health
         self.loop = asyncio.new_event_loop()
         self._sent: dict[str, int] = {}
+        #: Why the last open failed (None: it did not): the calls sent behind it say so.
+        self.open_failed: str | None = None
 
     def call(self, what: str, arg: Any) -> Any:
         plugin = self.plugin
+        if what == "open":
+            self.open_failed = None
+            try:
+                return self.loop.run_until_complete(plugin.open())
+            except Exception as exc:
+                self.open_failed = f"{type(exc).__name__}: {exc}"
+                raise
+        if self.open_failed is not None and what in ("write", "flush", "rotate"):
+            raise RuntimeError(f"not open (open: {self.open_failed})")
         if what == "write":
             return plugin.write(arg)
         if what == "flush":
@@ -134,8 +151,8 @@ class _OutputServant:
             return plugin.rotate()
         if what == "ready":
             return self.loop.run_until_complete(plugin.ready(arg))
-        if what in ("open", "close"):
-            return self.loop.run_until_complete(getattr(plugin, what)())
+        if what == "close":
+            return self.loop.run_until_complete(plugin.close())
         raise ValueError(f"unknown call {what!r}")
 
     def _guarded(self, what: str) -> Any:
@@ -242,22 +259,28 @@ class ProcessOutput:
             raise RuntimeError(exc.message) from None
 
     async def open(self) -> None:
-        """Start the process (the first time, or again after a failure) and open the
-        plugin there. Shielded: a shutdown while the child starts waits for it
-        (`started`) and then gives it what was queued, instead of leaving it behind."""
-        self.opening = asyncio.ensure_future(self._open())
-        await asyncio.shield(self.opening)
-
-    async def _open(self) -> None:
+        """Start the process (the first time, or again after a failure) and ask it to
+        open the plugin, without waiting for either: the host takes and sends its
+        batches at once, behind the open, with the clock as it then reads, so that the
+        process is given the very calls the loop placement makes (a replay reads on
+        while the child imports its stack). `opening` is the open's answer; a start or
+        an open that failed fails the writes behind it, and so the host's run."""
         if not self.child.alive:
             self._handed = self._refused = 0
             self._ledger = None
             opts = {k: v for k, v in self.plugin.ctx.options.items()
                     if isinstance(v, (str, int, float, bool, type(None)))}
             files = None if self.files is None else [str(f) for f in self.files]
-            await self.child.start((type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id,
-                                    opts, files, str(self.plugin.ctx.config_dir)), "output")
-        await self._call("open")
+            forget(self.child.launch((type(self.plugin), self.plugin.config, self.name, self.plugin.ctx.vessel_id,
+                                      opts, files, str(self.plugin.ctx.config_dir)), "output"))
+        self.opening = asyncio.ensure_future(self._call("open"))
+        forget(self.opening)
+
+    @property
+    def up(self) -> bool:
+        """Its process started and its open answered (what `open` does not wait for)."""
+        f = self.opening
+        return f is not None and f.done() and not f.cancelled() and f.exception() is None and self.child.alive
 
     async def started(self) -> bool:
         """Stopped while its process was starting: True once it is up and open (it
@@ -300,9 +323,13 @@ class ProcessOutput:
             raise ChildGone(f"{self.name}'s process is gone: {len(batch)} records not written")
 
     async def ready(self, timeout: float | None = None) -> bool:
-        """Once the process has started and opened the plugin (a replay must not
-        begin while it starts: its first batch would hold seconds of data), the
-        plugin's own answer (not watched: its own bound)."""
+        """A plugin that links to nothing (the base `ready`, such as the recorder) is
+        ready at once: the replay reads its first records while the process starts
+        (issue 34's start-up); they go behind the start, at most `depth` batches, and
+        the replay waits while the host has no room. Any other, once the process has
+        started and opened the plugin, answers itself (not watched: its own bound)."""
+        if type(self.plugin).ready is OutputPlugin.ready:
+            return True
         if self.opening is not None:
             try:
                 await asyncio.shield(self.opening)

@@ -19,6 +19,7 @@ A step that returns in time is never interrupted: what was queued is still proce
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import signal
 import threading
@@ -146,3 +147,20 @@ def ignore_stop_signals() -> None:
     closes). Only SIGKILL, systemd's last word after TimeoutStopSec, ends it otherwise."""
     for sig in CHILD_IGNORES:
         signal.signal(sig, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, CHILD_IGNORES)  # (blocked from birth: see `blocked_in_children`)
+
+
+@contextlib.contextmanager
+def blocked_in_children() -> Iterator[None]:
+    """Around the start of a child process: the stop signals blocked in the thread that
+    starts it, so that the child is born with them blocked (a signal mask survives
+    fork and exec) until `ignore_stop_signals` ignores them. A replay reads while its
+    children import their stack (issue 34): Ctrl-C to the process group in that second
+    would otherwise kill a recorder before it could ignore it. The parent misses
+    nothing: a signal meanwhile is taken by another of its threads, or waits until the
+    mask is restored."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, CHILD_IGNORES)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)

@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 from functools import reduce
 from operator import xor
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-import numpy as np
 
 #: NMEA 0183 allows 82 characters; TAG blocks and proprietary sentences are longer, so
 #: the limit is generous but bounded (a stream without line ends must not grow forever).
@@ -75,11 +74,32 @@ def line_xors(lines: list[bytes]) -> list[int] | None:
     """
     if len(lines) < _BATCH_MIN:
         return None
+    np = _numpy()
+    if np is None:
+        return None
     # The trailing 0 gives an empty last line a valid start index without changing a XOR.
     data = np.frombuffer(b"".join(lines) + b"\0", np.uint8)
     starts = np.zeros(len(lines), np.intp)
     np.cumsum(np.fromiter(map(len, lines), np.intp, len(lines) - 1), out=starts[1:])
     return np.bitwise_xor.reduceat(data, starts).tolist()
+
+
+_np: Any = None
+
+
+def _numpy() -> Any:
+    """numpy, from the second chunk on (None for the first): importing it costs about
+    80 ms, which the first record of a replay must not wait for (issue 34's start-up);
+    the first chunk is checked in Python at 2 µs a line."""
+    global _np
+    if _np is None:
+        _np = False
+        return None
+    if _np is False:
+        import numpy
+
+        _np = numpy
+    return _np
 
 
 def _checksum_ok(text: bytes, policy: str, missing: str) -> str | None:

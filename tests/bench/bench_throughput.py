@@ -16,6 +16,9 @@ machine's drift (twofold within an hour on the 2-vCPU machines) falls on all of 
 3. start-up: from the command's start to its first record read (the replay's
    `event=replay-started` log line, at `--log-level info`, timed as it arrives), for a
    one-line log with Zenoh and recording.
+The checkout's own modules are compiled to bytecode first, as an install has them (pip
+compiles at install; a run with PYTHONDONTWRITEBYTECODE set, as some sandboxes are,
+would otherwise compile ~100 modules at every start, 80 ms).
 Logs: the synthetic mix of `bench_replay.make_log` (GGA/VTG/HDT/RMC at 10 Hz, VBW/VHW
 at 1 Hz) and Signal K's real `plaka.log` (`--plaka`; from ../shared/data).
 Targets (issue 34): default ≥ 0.15× the floor on the mix; no estimator ≥ 0.24× on the
@@ -124,6 +127,9 @@ def main() -> int:
     ap.add_argument("--plaka", type=Path, default=PLAKA)
     ap.add_argument("--no-default", action="store_true", help="leave out the default configuration's rows")
     args = ap.parse_args()
+    root = HERE.parents[1]
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(root / "edged"), str(root / "plugins")],
+                   check=True, stdout=subprocess.DEVNULL)
     with tempfile.TemporaryDirectory() as d:
         work = Path(d)
         mix = work / "mix.nmea"

@@ -57,7 +57,7 @@ def test_records_reach_the_process_whole_in_order_with_the_clock_and_its_health_
         rt, clock = _runtime(registry, path)
         await rt.start()
         host = rt.outputs[0]
-        await wait_for(lambda: host.opened)
+        await wait_for(lambda: host.up)
         for k in range(0, len(times), 100):
             for t in times[k : k + 100]:
                 clock.set(t)
@@ -100,13 +100,13 @@ def test_a_crashed_process_is_counted_restarted_and_takes_the_records_after(regi
         rt, clock = _runtime(registry, path, crash_at=100.5)
         await rt.start()
         host = rt.outputs[0]
-        await wait_for(lambda: host.opened)
+        await wait_for(lambda: host.up)
         first = host.plugin.pid
         for t in (100.0, 100.1, 100.2):
             rt.router.publish(_m(t))
         await wait_for(lambda: host.health.counters.get("seen", 0) == 3)
         rt.router.publish(_m(100.5))  # the process exits at once (code 3)
-        await wait_for(lambda: host.health.restarts >= 1 and host.opened and host.plugin.pid not in (None, first))
+        await wait_for(lambda: host.health.restarts >= 1 and host.up and host.plugin.pid not in (None, first))
         for t in (100.6, 100.7):
             rt.router.publish(_m(t))
         await wait_for(lambda: host.health.counters.get("seen", 0) == 5)
@@ -133,7 +133,7 @@ def test_a_plugin_raising_in_its_process_is_reported_with_its_message(registry, 
         rt, _ = _runtime(registry, path, raise_at=100.2)
         await rt.start()
         host = rt.outputs[0]
-        await wait_for(lambda: host.opened)
+        await wait_for(lambda: host.up)
         rt.router.publish(_m(100.2))
         await wait_for(lambda: host.health.restarts >= 1)
         error = host.health.last_error
@@ -141,6 +141,55 @@ def test_a_plugin_raising_in_its_process_is_reported_with_its_message(registry, 
         return error
 
     assert "record at t=100.2 refused" in asyncio.run(main())
+
+
+@pytest.mark.parametrize("where", ["loop", "process"])
+def test_a_batch_the_plugin_raised_on_is_counted_lost(registry, tmp_path, where):
+    """Every record is written or counted lost: the batch a plugin's `write` raised on
+    (in either placement) is `dropped.write_failed`, beside the restart."""
+    path = tmp_path / "out.txt"
+
+    async def main():
+        rt, _ = _runtime(registry, path, raise_at=100.2, worker=where)
+        await rt.start()
+        host = rt.outputs[0]
+        await wait_for(lambda: host.up)
+        for i in range(5):
+            rt.router.publish(_m(100.0 + 0.1 * i))
+        await wait_for(lambda: host.health.restarts >= 1)
+        await rt.stop()
+        return host.health.counters
+
+    c = asyncio.run(main())
+    written = [rest for _, rest in _lines(path) if rest[:2] == ["write", "Measurement"]]
+    assert c["dropped.write_failed"] >= 1, c
+    assert len(written) + c["dropped.write_failed"] >= 5, (written, c)
+
+
+def test_an_open_that_fails_in_its_process_fails_the_writes_sent_behind_it_and_says_why(registry, tmp_path):
+    """The host sends its batches behind the process's start and open without waiting
+    for them (issue 34): an open that failed there refuses what follows, with the
+    open's reason, and every record is counted lost, none written."""
+    path = tmp_path / "out.txt"
+
+    async def main():
+        rt, _ = _runtime(registry, path, fail_open=True)
+        await rt.start()
+        host = rt.outputs[0]
+        for i in range(5):
+            rt.router.publish(_m(100.0 + i))
+        await wait_for(lambda: host.health.restarts >= 1)
+        error = host.health.last_error
+        await rt.stop()
+        return host, error
+
+    host, error = asyncio.run(main())
+    assert "not open (open: OSError: the disk said no)" in error
+    assert not host.up
+    c = host.health.counters
+    lost = sum(v for k, v in c.items() if k.startswith("dropped.")) + c.get("overflow", 0)
+    assert [rest for _, rest in _lines(path) if rest[0] == "write"] == []
+    assert lost == 5, c
 
 
 def test_stopped_while_its_process_starts_it_still_writes_what_was_queued(registry, tmp_path):

@@ -57,7 +57,7 @@ class _Side:
         return self.host.runner.pid if self.kind == "estimator" else self.host.plugin.pid
 
     def up(self) -> bool:
-        return self.host.health.state == "running" if self.kind == "estimator" else self.host.opened
+        return self.host.health.state == "running" if self.kind == "estimator" else self.host.up
 
     def publish(self, t: float) -> None:
         self.rt.router.publish(_yaw(t, 0.1))
@@ -216,10 +216,10 @@ async def test_a_stop_while_a_dead_output_waits_for_its_restart_counts_the_queue
                  sleep=backoff_for_ever)
     host = rt.outputs[0]
     await rt.start()
-    await wait_for(lambda: host.opened)
+    await wait_for(lambda: host.up)
     for i in range(3):
         rt.router.publish(_yaw(100.0 + i, 0.1))
-    await wait_for(lambda: host.health.counters.get("written", 0) == 3)
+    await wait_for(lambda: host.health.counters.get("written", 0) == 3 and not host.plugin._pending)
     os.kill(host.plugin.pid, signal.SIGKILL)
     rt.router.publish(_yaw(103.0, 0.1))  # finds it dead: the output goes to its backoff
     await wait_for(lambda: host.health.restarts == 1)
@@ -268,7 +268,7 @@ async def test_a_plugin_in_a_process_resolves_paths_from_the_configuration_files
     host = rt.outputs[0]
     await rt.start()
     try:
-        await wait_for(lambda: host.opened and "config_dir" in host.health.info)
+        await wait_for(lambda: host.up and "config_dir" in host.health.info)
         assert host.health.info["pid"] != os.getpid()
         assert host.health.info["config_dir"] == str(etc)
     finally:

@@ -73,7 +73,7 @@ def test_the_records_a_killed_recorder_lost_are_counted_exactly(tmp_path, when, 
     async def main():
         await rt.start()
         host = rt.outputs[0]
-        await _wait_for(lambda: host.opened)
+        await _wait_for(lambda: host.up)
         first = host.plugin.pid
         _publish(rt, clock, 0, n)
         if when == "flushed":
@@ -83,7 +83,7 @@ def test_the_records_a_killed_recorder_lost_are_counted_exactly(tmp_path, when, 
         elif when == "answered":
             await _wait_for(lambda: host.health.counters.get("written", 0) >= n and not host.plugin._pending)
         os.kill(first, signal.SIGKILL)
-        await _wait_for(lambda: host.health.restarts >= 1 and host.opened and host.plugin.pid not in (None, first))
+        await _wait_for(lambda: host.health.restarts >= 1 and host.up and host.plugin.pid not in (None, first))
         _publish(rt, clock, n, 50)
         await rt.stop()
         return list(host.plugin.files), dict(host.health.counters)

@@ -103,14 +103,14 @@ def test_a_recorder_whose_process_is_killed_goes_on_in_a_numbered_file(tmp_path)
     async def main():
         await rt.start()
         host = rt.outputs[0]
-        await wait_for(lambda: host.opened)
+        await wait_for(lambda: host.up)
         first = host.plugin.pid
         for i in range(100):
             rt.router.publish(Measurement("heading", "gyro", clock.now() + i * 0.1, {"heading": 1.0}))
         rt.tick()  # the chunk goes to the file
         await wait_for(lambda: host.health.counters.get("recorded", 0) >= 100)
         os.kill(first, signal.SIGKILL)
-        await wait_for(lambda: host.health.restarts >= 1 and host.opened and host.plugin.pid not in (None, first))
+        await wait_for(lambda: host.health.restarts >= 1 and host.up and host.plugin.pid not in (None, first))
         for i in range(100, 150):
             rt.router.publish(Measurement("heading", "gyro", clock.now() + i * 0.1, {"heading": 1.0}))
         await rt.stop()

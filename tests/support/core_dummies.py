@@ -281,6 +281,8 @@ class FileOutputConfig(OutputConfig):
     crash_at: float | None = None
     #: A record with this time makes `write` raise (the plugin fails, the process lives).
     raise_at: float | None = None
+    #: `open` raises (a file that cannot be made, a server that refuses).
+    fail_open: bool = False
 
 
 class FileOutput(OutputPlugin):
@@ -295,6 +297,8 @@ class FileOutput(OutputPlugin):
 
     async def open(self) -> None:
         self._line("open")
+        if self.config.fail_open:
+            raise OSError("the disk said no")
         self.ctx.health.set_state("writing")
         self.ctx.health.info["pid"] = os.getpid()
         self.ctx.health.info["config_dir"] = str(self.ctx.config_dir)
