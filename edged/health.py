@@ -114,12 +114,17 @@ class ComponentHealth:
 
     def snapshot(self) -> dict[str, Any]:
         now = self._clock.monotonic()
-        rates: dict[str, float] = {}
-        if self._prev_t is not None and now > self._prev_t:
-            dt = now - self._prev_t
-            for k, v in self.counters.items():
-                rates[k] = round((v - self._prev.get(k, 0)) / dt, 3)
-        self._prev = dict(self.counters)
+        # One copy, kept as the next rates' base and published (neither is changed
+        # after: a replay snapshots once a second of data, hundreds a wall second).
+        counters = dict(self.counters)
+        prev_t = self._prev_t
+        if prev_t is not None and now > prev_t:
+            dt = now - prev_t
+            prev = self._prev
+            rates = {k: round((v - prev.get(k, 0)) / dt, 3) for k, v in counters.items()}
+        else:
+            rates = {}
+        self._prev = counters
         self._prev_t = now
         return {
             "role": self.role,
@@ -127,7 +132,7 @@ class ComponentHealth:
             "state": self.state,
             "ok": self.state in OK_STATES and not self.problems,
             "problems": list(self.problems),
-            "counters": dict(self.counters),
+            "counters": counters,
             "rates": rates,
             "last_error": self.last_error,
             "last_error_t": self.last_error_t,

@@ -262,6 +262,11 @@ class RawRecord:
         self.data = data
         self.meta = meta
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # to the recorder's process: the constructor's arguments (1.0 µs a record
+        # pickled instead of 1.75 µs, 29 bytes instead of 45; issue 34)
+        return (RawRecord, (self.protocol, self.source, self.t, self.data, self.meta))
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RawRecord):
             return NotImplemented
@@ -291,6 +296,9 @@ class HealthRecord:
     def __init__(self, t: float, values: dict[str, Any]) -> None:
         self.t = t
         self.values = values
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (HealthRecord, (self.t, self.values))
 
     def beacon(self) -> HealthRecord:
         """The record without its snapshot: all an estimator worker takes from it is
