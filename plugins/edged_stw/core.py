@@ -17,9 +17,9 @@ from typing import Any
 from edged.estimator import Estimator, handles
 from edged.geo import haversine
 from edged.records import Estimate, Measurement
-from edged.units import finite_numbers as _finite
 
 from .config import StwConfig
+from .inputs import COSTS, GROUND, WATCHED, finite as _finite
 from .logcheck import LogCheck
 from .motion import Motion
 from .paper import PaperModel
@@ -28,18 +28,6 @@ from .watch import NisWatch
 
 log = logging.getLogger("edged.stw")
 
-#: What a vessel loses without each input (health `info.filter.missing`).
-COSTS: dict[str, str] = {
-    "position": "no GNSS position: velocity from SOG/COG alone, no distance check of the speed",
-    "velocity_ground": "no SOG/COG: the ground velocity comes from successive positions only",
-    "heading": "no heading: COG stands in for it, so stw_long/stw_trans are along/across the track, "
-               "the drift angle is not seen and the cross current comes from forecasts alone",
-    "accel_body": "no IMU: the acceleration is seen only through changes of SOG (slower response to speed changes)",
-    "current": "no current forecast: the current is unknown (σ grows to current_sigma_max), "
-               "so STW is SOG with that uncertainty",
-    "water_speed": "no Doppler/EM log: dvl_stw, dvl_bias and dvl_scale are null",
-    "yaw_rate": "no rate-of-turn sensor: turns are found from the heading's changes, a few seconds late",
-}
 #: No sea current runs faster (m/s; the Pentland Firth's 8 m/s is among the fastest).
 MAX_CURRENT = 10.0
 #: Accelerations beyond this (m/s², 2 g) are not a ship's.
@@ -48,10 +36,6 @@ MAX_ACCEL = 20.0
 DVL_FIT_MAX_STD = 0.5
 #: A position and a velocity this close in time (s) are one GNSS epoch.
 GNSS_EPOCH = 0.5
-#: Kinds that move the ground filter: a gap in them is a gap in the data.
-GROUND = frozenset({"position", "velocity_ground"})
-#: Kinds whose NIS health watches (the log has its own watch: it never moves the estimate).
-WATCHED = ("position", "velocity_ground", "accel_body", "heading_course", "current")
 
 
 class StwCore(Estimator):
@@ -91,21 +75,26 @@ class StwCore(Estimator):
         if rec.kind in GROUND and self._ground_t is not None and t - self._ground_t > self.cfg.reset_after:
             self._restart(t, f"no GNSS for {t - self._ground_t:.0f} s (reset_after {self.cfg.reset_after:g} s): "
                              "restarted from the next measurements")
-        if isinstance(self.model, PaperModel):
-            for nis in self.model.advance(t):
+        m = self.model
+        if isinstance(m, VectorModel):
+            g = m.ground
+            if g is not None:
+                g.r = self.motion.rate(t)
+            was_ready = g is not None
+        else:
+            for nis in m.advance(t):
                 self.updated("gnss", nis, 2)
-        if isinstance(self.model, VectorModel) and self.model.ground is not None:
-            self.model.ground.r = self.motion.rate(t)
-        was_ready = self.model.ready
+            was_ready = m.ready
         super().step(rec)
-        if not was_ready and self.model.ready and self._pending_forecast is not None:
+        if not was_ready and self._pending_forecast is not None and self.model.ready:
             t_f, *forecast = self._pending_forecast
             self._pending_forecast = None
             if t - t_f <= self.cfg.forecast_max_age:
                 self._forecast(t, *forecast)
             else:
                 self.rejected["current.stale"] += 1
-        self._constant_current(t)
+        if self.cfg.current is not None:
+            self._constant_current(t)
         return []
 
     def _restart(self, t: float, reason: str) -> None:
@@ -408,12 +397,15 @@ class StwCore(Estimator):
             for nis in m.advance(t):
                 self.updated("gnss", nis, 2)
             values = m.estimate(t)
+            if values is None:
+                return []
+            ground_std = m.ground_std(t)
         else:
             self._flush_accel()
-            values = m.estimate(t, self.motion.heading_at(t))
-        if values is None:
-            return []
-        ground_std = m.ground_std(t)
+            res = m.publishable(t, self.motion.heading_at(t))
+            if res is None:
+                return []
+            values, ground_std = res
         if not ground_std <= self.cfg.publish_max_std:
             return []  # the ground velocity is not known yet (a start from positions alone)
         values["converging"] = ground_std > self.cfg.converged_std

@@ -36,12 +36,14 @@ The Doppler log is not a measurement of this filter (`dvl.py` fits it).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .gating import cap_variance, consider_update, innovation, update
+from .gating import cap_variance, consider_update
+from .kalman import identity, innovation, innovation_rows, innovation_scalar, update, update_rows, update_scalar
 
 C, RATE, S, K = slice(0, 2), slice(2, 4), 4, 5
 N_STATE = 6
@@ -73,6 +75,33 @@ class CurrentParams:
         return (("steady", None), ("drifting", self.q_slow), ("turning", self.q_fast))
 
 
+@functools.lru_cache(maxsize=512)
+def _transition(T: float, q_rate: float | None, q_scale: float, sway_sigma: float, q_steady: float,
+                leeway_time: float) -> tuple[np.ndarray, np.ndarray]:
+    """F and Q of one hypothesis for a step of T s (the module's model; read-only,
+    kept: a tick, a log reading and a look of heading − course predict all three
+    hypotheses over the same intervals; the key is floats, which hash fast)."""
+    F = np.eye(N_STATE)
+    Q = np.zeros((N_STATE, N_STATE))
+    if q_rate is not None:
+        q = q_rate * q_scale
+        F[0, 2] = F[1, 3] = T
+        for i, j in ((0, 2), (1, 3)):
+            Q[i, i] = q * T**3 / 3.0
+            Q[i, j] = Q[j, i] = q * T * T / 2.0
+            Q[j, j] = q * T
+    else:
+        F[2, 2] = F[3, 3] = 0.0
+        Q[0, 0] = Q[1, 1] = q_steady * q_scale * T
+    phi = math.exp(-T / leeway_time)
+    F[S, S] = phi
+    Q[S, S] = sway_sigma**2 * (1.0 - phi * phi)
+    Q[K, K] = Q_K * T
+    F.flags.writeable = False
+    Q.flags.writeable = False
+    return F, Q
+
+
 class CurrentFilter:
     """One Kalman filter per current hypothesis, on the same state."""
 
@@ -101,30 +130,11 @@ class CurrentFilter:
         P[:, RATE] = 0.0
         return P
 
-    def _transition(self, T: float, q_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
-        p = self.p
-        F = np.eye(N_STATE)
-        Q = np.zeros((N_STATE, N_STATE))
-        if q_rate is not None:
-            q = q_rate * self.q_scale
-            F[0, 2] = F[1, 3] = T
-            for i, j in ((0, 2), (1, 3)):
-                Q[i, i] = q * T**3 / 3.0
-                Q[i, j] = Q[j, i] = q * T * T / 2.0
-                Q[j, j] = q * T
-        else:
-            F[2, 2] = F[3, 3] = 0.0
-            Q[0, 0] = Q[1, 1] = p.q_steady * self.q_scale * T
-        phi = math.exp(-T / p.leeway_time)
-        F[S, S] = phi
-        Q[S, S] = self.sway_sigma**2 * (1.0 - phi * phi)
-        Q[K, K] = Q_K * T
-        return F, Q
-
     def _predict_one(self, y: np.ndarray, P: np.ndarray, T: float, q_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
-        F, Q = self._transition(T, q_rate)
-        y = F @ y
-        P = F @ P @ F.T + Q
+        p = self.p
+        F, Q = _transition(T, q_rate, self.q_scale, self.sway_sigma, p.q_steady, p.leeway_time)
+        y = np.dot(F, y)
+        P = np.dot(np.dot(F, P), F.T) + Q
         P = cap_variance(P, C, self.p.sigma_max**2)
         if q_rate is not None:
             P = cap_variance(P, RATE, (5.0 * self.p.rate_sigma) ** 2)
@@ -145,11 +155,12 @@ class CurrentFilter:
         if t is not None and t > self.t:
             pairs = [self._predict_one(self.y[m], self.P[m], t - self.t, q) for m, (_, q) in enumerate(self.modes)]
             ys, Ps = [a for a, _ in pairs], [b for _, b in pairs]
-        y = sum(self.mu[m] * ys[m] for m in range(len(ys)))
+        mu = self.mu.tolist()
+        y = sum(mu[m] * ys[m] for m in range(len(ys)))
         P = np.zeros((N_STATE, N_STATE))
         for m in range(len(ys)):
             d = ys[m] - y
-            P += self.mu[m] * (Ps[m] + np.outer(d, d))
+            P += mu[m] * (Ps[m] + d[:, None] * d[None, :])
         return y, P
 
     def _mix(self) -> None:
@@ -175,10 +186,10 @@ class CurrentFilter:
     def _update_modes(self, z: np.ndarray, R: np.ndarray, H: np.ndarray, held: np.ndarray | None = None) -> None:
         like = np.zeros(len(self.modes))
         for m, (_, q) in enumerate(self.modes):
-            _, S, nis = innovation(self.y[m], self.P[m], z, R, H)
+            y, S, nis = innovation(self.y[m], self.P[m], z, R, H)
             like[m] = math.exp(-0.5 * min(nis, 200.0)) / math.sqrt(max(np.linalg.det(S), 1e-300))
             if held is None:
-                self.y[m], self.P[m] = update(self.y[m], self.P[m], z, R, H)
+                self.y[m], self.P[m] = update(self.y[m], self.P[m], y, S, R, H)
             else:
                 self.y[m], self.P[m] = consider_update(self.y[m], self.P[m], z, R, H, held)
             if q is None:
@@ -192,13 +203,13 @@ class CurrentFilter:
     def forecast_nis(self, t: float, c_n: float, c_e: float, var: float) -> float:
         """NIS of a forecast against the combined estimate at t (the gate's test)."""
         y, P = self.mixture(t)
-        _, _, nis = innovation(y, P, np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
+        _, _, nis = innovation_rows(y, P, np.array([c_n, c_e]), identity(2) * var, C)
         return nis
 
     def forecast(self, t: float, c_n: float, c_e: float, var: float) -> None:
         self.predict(t)
         self._mix()
-        self._update_modes(np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
+        self._update_modes(np.array([c_n, c_e]), identity(2) * var, _H_FORECAST)
         self._keep_speed()
 
     def _keep_speed(self) -> None:
@@ -215,9 +226,11 @@ class CurrentFilter:
             speed = math.hypot(y[0], y[1])
             if speed < 0.1:
                 continue
-            H = np.zeros((1, N_STATE))
-            H[0, RATE] = y[C] / speed
-            self.y[m], self.P[m] = update(y, P, np.zeros(1), np.array([[SPEED_RATE_SIGMA**2]]), H)
+            h = np.zeros(N_STATE)
+            h[RATE] = y[C] / speed
+            r = SPEED_RATE_SIGMA**2
+            e, s, _ = innovation_scalar(y, P, 0.0, r, h)
+            self.y[m], self.P[m] = update_scalar(y, P, e, s, r, h)
 
     def adapt(self, nis_history: list[float], limit: float) -> None:
         """Covariance matching on the forecasts: a forecast's NIS has mean 2 (2 dof)
@@ -232,7 +245,7 @@ class CurrentFilter:
         for P in self.P:
             P[C, :] = 0.0
             P[:, C] = 0.0
-            P[C, C] = np.eye(2) * sigma * sigma
+            P[C, C] = identity(2) * sigma * sigma
 
     def cross(self, t: float, z: float, starboard: np.ndarray, var: float, gate: float,
               r: float = 0.0) -> tuple[float, bool]:

@@ -30,16 +30,35 @@ filter flows back into the STW estimate.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
-from .gating import cap_variance, innovation, update
+from .gating import cap_variance
+from .kalman import identity, innovation_rows, innovation_scalar, update_rows, update_scalar
 
 C, RATE, B, K = slice(0, 2), slice(2, 4), 4, 5
-_H_FORECAST = np.eye(6)[C]
 _Q_B = 0.05**2 / 86_400.0  # the offset may move 5 cm/s in a day (fouling, a new transducer)
 _Q_K = 0.01**2 / 86_400.0  # and the scale 1 % in a day
+
+
+@functools.lru_cache(maxsize=256)
+def _model(T: float, q: float, fit_scale: bool) -> tuple[np.ndarray, np.ndarray]:
+    """F and Q of the module's model for a step of T s (read-only; kept: the log's
+    interval repeats)."""
+    F = np.eye(6)
+    F[0, 2] = F[1, 3] = T
+    Q = np.zeros((6, 6))
+    for i, j in ((0, 2), (1, 3)):
+        Q[i, i] = q * T**3 / 3.0
+        Q[i, j] = Q[j, i] = q * T * T / 2.0
+        Q[j, j] = q * T
+    Q[B, B] = _Q_B * T
+    Q[K, K] = _Q_K * T if fit_scale else 0.0
+    F.flags.writeable = False
+    Q.flags.writeable = False
+    return F, Q
 
 
 class LogCalibration:
@@ -64,24 +83,18 @@ class LogCalibration:
         T = t - self.t
         if T <= 0.0:
             return
-        F = np.eye(6)
-        F[0, 2] = F[1, 3] = T
-        Q = np.zeros((6, 6))
-        for i, j in ((0, 2), (1, 3)):
-            Q[i, i] = self.q * T**3 / 3.0
-            Q[i, j] = Q[j, i] = self.q * T * T / 2.0
-            Q[j, j] = self.q * T
-        Q[B, B] = _Q_B * T
-        Q[K, K] = _Q_K * T if self.fit_scale else 0.0
-        self.x = F @ self.x
-        self.P = F @ self.P @ F.T + Q
+        F, Q = _model(T, self.q, self.fit_scale)
+        self.x = np.dot(F, self.x)
+        self.P = np.dot(np.dot(F, self.P), F.T) + Q
         self.P = cap_variance(self.P, C, self.sigma_max**2)
         self.P = cap_variance(self.P, RATE, (5.0 * self.rate_sigma) ** 2)
         self.t = t
 
     def forecast(self, t: float, c_n: float, c_e: float, var: float) -> None:
         self.predict(t)
-        self.x, self.P = update(self.x, self.P, np.array([c_n, c_e]), np.eye(2) * var, _H_FORECAST)
+        R = identity(2) * var
+        y, S, _ = innovation_rows(self.x, self.P, np.array([c_n, c_e]), R, C)
+        self.x, self.P = update_rows(self.x, self.P, y, S, R, C)
 
     def reading(self, t: float, z: float, ahead: np.ndarray, v_g: np.ndarray, var: float, gate: float,
                 dry: bool = False) -> tuple[float, bool]:
@@ -93,18 +106,17 @@ class LogCalibration:
         if self.u0 is None:
             self.g0 = g_along
             self.u0 = g_along - float(x[C] @ ahead)
-        H = np.zeros(6)
-        H[C] = -ahead
-        H[B] = 1.0  # b₀
-        H[K] = g_along - self.g0
-        H = H[None, :]
-        zl = np.array([z - g_along])  # dvl − v_g·x̂ = −c·x̂ + b₀ + k·(v_g·x̂ − g₀)
-        _, _, nis = innovation(x, self.P, zl, np.array([[var]]), H)
+        h = np.zeros(6)
+        h[C] = -ahead
+        h[B] = 1.0  # b₀
+        h[K] = g_along - self.g0
+        zl = z - g_along  # dvl − v_g·x̂ = −c·x̂ + b₀ + k·(v_g·x̂ − g₀)
+        y, s, nis = innovation_scalar(x, self.P, zl, var, h)
         if not math.isfinite(nis) or nis > gate:
             return nis, False
         if dry:
             return nis, True
-        self.x, self.P = update(x, self.P, zl, np.array([[var]]), H)
+        self.x, self.P = update_scalar(x, self.P, y, s, var, h)
         self.updates += 1
         return nis, True
 

@@ -1,31 +1,30 @@
-"""Innovation (Mahalanobis) gates and the one Kalman update every filter here uses."""
+"""Innovation (Mahalanobis) gates, the covariance cap and the Schmidt update; the plain
+Kalman equations are `kalman.py`'s."""
 
 from __future__ import annotations
 
 import numpy as np
-from filterpy.kalman import update as kf_update
+
+from .kalman import identity, innovation
+
+__all__ = ["innovation", "cap_variance", "consider_update"]
 
 
-def innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Residual y = z − Hx, its covariance S = HPHᵀ + R and the NIS yᵀS⁻¹y."""
-    y = z - H @ x
-    S = H @ P @ H.T + R
-    nis = float(y @ np.linalg.solve(S, y))
-    return y, S, nis
-
-
-def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """filterpy's linear update (Joseph form, so P stays symmetric positive)."""
-    return kf_update(x, P, z, R, H)
-
-
-def cap_variance(P: np.ndarray, idx: slice | list[int], var_max: float) -> np.ndarray:
+def cap_variance(P: np.ndarray, idx: slice, var_max: float) -> np.ndarray:
     """Scale rows and columns `idx` so that no variance there exceeds `var_max`.
 
     D·P·D with D diagonal keeps P positive semi-definite and the correlations as they
     were; used so that a state that nothing observes (the current without forecasts)
     says "unknown, within physical bounds" instead of growing without limit.
+    Nearly always nothing is over the cap: that is decided from the diagonal alone
+    (a NaN is not over it, as before) and P comes back as it was.
     """
+    lo, hi, _ = idx.indices(P.shape[0])
+    for i in range(lo, hi):
+        if P[i, i] > var_max:
+            break
+    else:
+        return P
     d = np.ones(P.shape[0])
     v = np.diag(P)[idx]
     d[idx] = np.where(v > var_max, np.sqrt(var_max / np.maximum(v, 1e-300)), 1.0)
@@ -50,6 +49,6 @@ def consider_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray, 
     K = np.linalg.solve(S, H @ P).T
     K = K - held @ (held.T @ K)
     x = x + K @ (z - H @ x)
-    I_KH = np.eye(P.shape[0]) - K @ H
+    I_KH = identity(P.shape[0]) - K @ H
     P = I_KH @ P @ I_KH.T + K @ R @ K.T
     return x, 0.5 * (P + P.T)

@@ -26,15 +26,11 @@ import functools
 import math
 
 import numpy as np
-from filterpy.common import Q_continuous_white_noise
-from filterpy.kalman import predict as kf_predict
 
-from .gating import innovation, update
+from .kalman import identity, innovation, innovation_rows, predict, update, update_rows, white_noise_q
 
 P_N, P_E, V_N, V_E, A_N, A_E = range(6)
 POS, VEL, ACC = slice(0, 2), slice(2, 4), slice(4, 6)
-_H_POS = np.eye(6)[POS]
-_H_VEL = np.eye(6)[VEL]
 _H_ACC = np.eye(6)[ACC]
 #: Bounds of the jerk density q learned from the data (m²/s⁵): from a laden ship holding
 #: her speed (1e-9: the acceleration wanders by ~0.003 m/s² in 10 minutes) to a small
@@ -65,6 +61,14 @@ DRIFT_MAX_VAR = 0.15
 ACCEL_JUMP = 0.02
 
 
+@functools.lru_cache(maxsize=64)
+def _noise2(var: float) -> np.ndarray:
+    """R = var·I₂ of a 2-D measurement (a configured σ²: made once; read-only)."""
+    R = np.array([[var, 0.0], [0.0, var]])
+    R.flags.writeable = False
+    return R
+
+
 class DriftWatch:
     """A change of acceleration the filter is too stiff to see (a ship's new orders).
 
@@ -78,33 +82,55 @@ class DriftWatch:
         w = L⁻¹y,   m ← (1 − α)·m + α·w,   V ← (1 − α)²·V + α²,   α = min(Δt/τ, 1)
     has covariance V·I while they are white; mᵀm > DRIFT_GATE·V says they are not.
     Ramps of 0.02 m/s² are seen within 3–4 s from SOG alone (the information the
-    readings hold: Σ(a·t/σ)² reaches the gate then), sooner with an accelerometer."""
+    readings hold: Σ(a·t/σ)² reaches the gate then), sooner with an accelerometer.
+
+
+    The 2×2 algebra is written out (a step of a 10 Hz filter: a Cholesky factor and a
+    triangular solve through LAPACK cost more than the filter's update): the whitened
+    mean `m` only decides whether the gate is passed; `y` (kept as a pair of floats,
+    each the same products and sums as the vector form) sets the velocity's inflation.
+    """
 
     def __init__(self, tau: float = DRIFT_TAU) -> None:
         self.tau = tau
-        self.m = np.zeros(2)
-        self.y = np.zeros(2)  # the same mean of the innovations as they are (m/s, m/s²)
+        self.m0 = self.m1 = 0.0
+        self.y0 = self.y1 = 0.0  # the same mean of the innovations as they are (m/s, m/s²)
         self.V = 0.0
         self.t: float | None = None
 
+    @property
+    def y(self) -> np.ndarray:
+        """The running mean of the innovations as a vector."""
+        return np.array([self.y0, self.y1])
+
     def lean(self, t: float, y: np.ndarray, S: np.ndarray) -> bool:
-        """Add one innovation; True when the recent ones lean beyond the gate."""
-        try:
-            w = np.linalg.solve(np.linalg.cholesky(S), y)
-        except np.linalg.LinAlgError:  # S not positive: nothing to judge by
+        """Add one innovation; True when the recent ones lean beyond the gate.
+        w = L⁻¹y with S = L Lᵀ: L = [[l₀₀, 0], [l₁₀, l₁₁]], l₀₀ = √S₀₀, l₁₀ = S₁₀/l₀₀,
+        l₁₁ = √(S₁₁ − l₁₀²); w₀ = y₀/l₀₀, w₁ = (y₁ − l₁₀ w₀)/l₁₁ (the lower triangle,
+        as LAPACK's potrf reads it)."""
+        (s00, _), (s10, s11) = S.tolist()
+        y0, y1 = y.tolist()
+        if not s00 > 0.0:  # S not positive (or NaN): nothing to judge by
             return False
-        if not np.all(np.isfinite(w)):
+        l00 = math.sqrt(s00)
+        l10 = s10 / l00
+        d = s11 - l10 * l10
+        if not d > 0.0:
+            return False
+        w0 = y0 / l00
+        w1 = (y1 - l10 * w0) / math.sqrt(d)
+        if not (math.isfinite(w0) and math.isfinite(w1)):
             return False
         a = 1.0 if self.t is None else min(max(t - self.t, 1e-3) / self.tau, 1.0)
         self.t = t
-        self.m = (1.0 - a) * self.m + a * w
-        self.y = (1.0 - a) * self.y + a * y
-        self.V = (1.0 - a) ** 2 * self.V + a * a
-        return self.V <= DRIFT_MAX_VAR and float(self.m @ self.m) > DRIFT_GATE * self.V
+        b = 1.0 - a
+        self.m0, self.m1 = b * self.m0 + a * w0, b * self.m1 + a * w1
+        self.y0, self.y1 = b * self.y0 + a * y0, b * self.y1 + a * y1
+        self.V = b**2 * self.V + a * a
+        return self.V <= DRIFT_MAX_VAR and self.m0 * self.m0 + self.m1 * self.m1 > DRIFT_GATE * self.V
 
     def clear(self) -> None:
-        self.m[:] = 0.0
-        self.y[:] = 0.0
+        self.m0 = self.m1 = self.y0 = self.y1 = 0.0
         self.V = 0.0
 
 
@@ -116,27 +142,46 @@ def transition(T: float, r: float = 0.0) -> np.ndarray:
         v(k+1) = Rot(θ)·v + T·a,   p(k+1) = p + (1/r)·[[sin θ, −(1 − cos θ)], [1 − cos θ, sin θ]]·v + ½T²·a
     so that a turning ship's ground velocity between 30-s fixes swings round instead of
     being blended (shortened) between its old and new directions; `a` is then the
-    acceleration besides the turn's (speed changes)."""
-    F = np.eye(6)
-    F[P_N, V_N] = F[P_E, V_E] = F[V_N, A_N] = F[V_E, A_E] = T
-    F[P_N, A_N] = F[P_E, A_E] = 0.5 * T * T
+    acceleration besides the turn's (speed changes). Without a turn F depends on T
+    alone and is the one kept for that T (read-only)."""
     th = r * T
-    if abs(th) > 1e-9:
-        c, s = math.cos(th), math.sin(th)
-        F[V_N, V_N], F[V_N, V_E], F[V_E, V_N], F[V_E, V_E] = c, -s, s, c
-        F[P_N, V_N] = F[P_E, V_E] = s / r
-        F[P_N, V_E], F[P_E, V_N] = -(1.0 - c) / r, (1.0 - c) / r
+    if not abs(th) > 1e-9:
+        return _straight(T)
+    F = _straight(T).copy()
+    c, s = math.cos(th), math.sin(th)
+    F[V_N, V_N], F[V_N, V_E], F[V_E, V_N], F[V_E, V_E] = c, -s, s, c
+    F[P_N, V_N] = F[P_E, V_E] = s / r
+    F[P_N, V_E], F[P_E, V_N] = -(1.0 - c) / r, (1.0 - c) / r
     return F
 
 
 @functools.lru_cache(maxsize=256)
-def process_noise(T: float, q: float) -> np.ndarray:
-    """Q of white jerk (filterpy's continuous white noise, order 3, two axes).
+def _straight(T: float) -> np.ndarray:
+    """F of a step of T s without a turn (read-only: shared)."""
+    F = np.eye(6)
+    F[P_N, V_N] = F[P_E, V_E] = F[V_N, A_N] = F[V_E, A_E] = T
+    F[P_N, A_N] = F[P_E, A_E] = 0.5 * T * T
+    F.flags.writeable = False
+    return F
 
-    Kept for each (T, q) seen lately: a sensor's interval and the agility q repeat
-    (a 10 Hz GNSS replay: 8570 predictions, 36 distinct pairs), and filterpy builds
-    the matrix anew at every call. Read-only, as it is shared."""
-    Q = Q_continuous_white_noise(dim=3, dt=T, spectral_density=q, block_size=2, order_by_dim=False)
+
+@functools.lru_cache(maxsize=256)
+def _jerk_q(T: float) -> np.ndarray:
+    """Q of white jerk of unit density (`kalman` (Q3)) on both axes, the states ordered
+    by derivative [p_n, p_e, v_n, v_e, a_n, a_e]: element (2i + k, 2j + k) is (Q3)'s
+    (i, j) for axis k (read-only: shared)."""
+    Q = np.kron(white_noise_q(3, T), identity(2))
+    Q.flags.writeable = False
+    return Q
+
+
+@functools.lru_cache(maxsize=256)
+def process_noise(T: float, q: float) -> np.ndarray:
+    """Q of white jerk of density q (m²/s⁵), q·(Q3) on both axes.
+
+    Kept for each (T, q) seen lately: a sensor's interval and the agility q repeat (a
+    10 Hz GNSS replay: 8570 predictions, 36 distinct pairs). Read-only, as it is shared."""
+    Q = _jerk_q(T) * q
     Q.flags.writeable = False
     return Q
 
@@ -162,7 +207,7 @@ class GroundFilter:
         T = t - self.t
         if T <= 0.0:
             return
-        self.x, self.P = kf_predict(self.x, self.P, transition(T, self.r), process_noise(T, self.q))
+        self.x, self.P = predict(self.x, self.P, transition(T, self.r), process_noise(T, self.q))
         self.t = t
 
     def predicted(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -171,13 +216,13 @@ class GroundFilter:
         if T <= 0.0:
             return self.x, self.P
         F = transition(T, self.r)
-        return F @ self.x, F @ self.P @ F.T + process_noise(T, self.q)
+        return np.dot(F, self.x), np.dot(np.dot(F, self.P), F.T) + process_noise(T, self.q)
 
     # Each `try_*` predicts to the measurement, gates it and updates; it returns the
     # NIS and whether it was used.
     def try_position(self, n: float, e: float, sigma: float, gate: float) -> tuple[float, bool]:
         z = np.array([n, e])
-        R = np.eye(2) * sigma * sigma
+        R = _noise2(sigma * sigma)
         if not self.have_position:
             # The first fix places the plane's origin: take it as it is.
             self.x[POS] = z
@@ -186,10 +231,10 @@ class GroundFilter:
             self.P[POS, POS] = R
             self.have_position = True
             return 0.0, True
-        _, _, nis = innovation(self.x, self.P, z, R, _H_POS)
+        y, S, nis = innovation_rows(self.x, self.P, z, R, POS)
         if not nis <= gate:  # NaN fails too
             return nis, False
-        self.x, self.P = update(self.x, self.P, z, R, _H_POS)
+        self.x, self.P = update_rows(self.x, self.P, y, S, R, POS)
         return nis, True
 
     def adapt(self, nis: float, dof: int) -> None:
@@ -207,38 +252,43 @@ class GroundFilter:
 
     def try_velocity(self, v_n: float, v_e: float, sigma: float, gate: float) -> tuple[float, bool]:
         z = np.array([v_n, v_e])
-        R = np.eye(2) * sigma * sigma
-        y, S, nis = innovation(self.x, self.P, z, R, _H_VEL)
+        R = _noise2(sigma * sigma)
+        y, S, nis = innovation_rows(self.x, self.P, z, R, VEL)
         self.adapt(nis, 2)
-        self._watched("velocity", y, S)
+        if self._watched("velocity", y, S):
+            S = self.P[VEL, VEL] + R  # (K4) again: the watch widened P
         if not nis <= gate:  # NaN fails too
             return nis, False
-        self.x, self.P = update(self.x, self.P, z, R, _H_VEL)
+        self.x, self.P = update_rows(self.x, self.P, y, S, R, VEL)
         return nis, True
 
     def try_accel(self, a_n: float, a_e: float, var: float, gate: float) -> tuple[float, bool]:
         """The accelerometers see the turn's acceleration too: z = a + r·[−v_e, v_n]."""
         z = np.array([a_n, a_e])
-        R = np.eye(2) * var
+        R = _noise2(var)
         H = _H_ACC.copy()
         H[0, V_E], H[1, V_N] = -self.r, self.r
         y, S, nis = innovation(self.x, self.P, z, R, H)
-        self._watched("accel", y, S)
+        if self._watched("accel", y, S):
+            y, S, _ = innovation(self.x, self.P, z, R, H)  # (K4) again: the watch widened P
         if not nis <= gate:  # NaN fails too
             return nis, False
-        self.x, self.P = update(self.x, self.P, z, R, H)
+        self.x, self.P = update(self.x, self.P, y, S, R, H)
         return nis, True
 
-    def _watched(self, kind: str, y: np.ndarray, S: np.ndarray) -> None:
-        """Raise q to Q_ORDER when a watch sees the innovations lean one way."""
+    def _watched(self, kind: str, y: np.ndarray, S: np.ndarray) -> bool:
+        """Widen the velocity's and the acceleration's covariance when a watch sees the
+        innovations lean one way; whether it did (the update then needs S anew)."""
         watch = self._watch[kind]
-        if watch.lean(self.t, y, S):
-            lag = float(watch.y @ watch.y) if kind == "velocity" else 0.0
-            self.P[VEL, VEL] += np.eye(2) * lag
-            self.P[ACC, ACC] += np.eye(2) * ACCEL_JUMP**2
-            self.manoeuvres += 1
-            for w in self._watch.values():
-                w.clear()
+        if not watch.lean(self.t, y, S):
+            return False
+        lag = float(watch.y @ watch.y) if kind == "velocity" else 0.0
+        self.P[VEL, VEL] += np.eye(2) * lag
+        self.P[ACC, ACC] += np.eye(2) * ACCEL_JUMP**2
+        self.manoeuvres += 1
+        for w in self._watch.values():
+            w.clear()
+        return True
 
     def reset_position(self, n: float, e: float, sigma: float) -> None:
         """Trust the GNSS again after a jump the gate kept rejecting (a new antenna,

@@ -26,6 +26,9 @@ class HeadingTrack:
         self._s = 0.0
         self._ref: tuple[float, float] | None = None  # (t, smoothed heading) for the rate
         self.rate: tuple[float, float] | None = None  # (t, rad/s)
+        #: The smoothed heading as of the last sample: read for every IMU sample and
+        #: GNSS velocity, changed only by `add`.
+        self._mean: float | None = None
 
     def add(self, t: float, h: float) -> None:
         if self.t is None:
@@ -38,7 +41,7 @@ class HeadingTrack:
         self._s += w * (math.sin(h) - self._s)
         self.t = t if self.t is None else max(self.t, t)
         self.latest = h
-        mean = self.smoothed()
+        mean = self._mean = self._smooth()
         if mean is None:
             return
         if self._ref is None:
@@ -49,6 +52,11 @@ class HeadingTrack:
             self._ref = (t, mean)
 
     def smoothed(self) -> float | None:
+        """The direction of the mean unit vector (None before a sample, or when the
+        samples cancel out)."""
+        return self._mean
+
+    def _smooth(self) -> float | None:
         if self.t is None or math.hypot(self._c, self._s) < 1e-6:
             return None
         return wrap_2pi(math.atan2(self._s, self._c))

@@ -26,12 +26,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import predict as kf_predict
 
 from edged.geo import haversine
 
 from .dvl import LogCalibration
-from .gating import innovation, update
+from .kalman import innovation, predict, update
 
 D, U_SOG, U_STW, U_C = range(4)
 _H1 = np.eye(4)[[D, U_SOG, U_C]]
@@ -78,7 +77,7 @@ class PaperFilter:
     def cycle(self, A: float, d: float | None, sog: float, u_c: float | None, var_c: float) -> float:
         """One sample time: time update with input A, then H1 or H2 (without the
         distance row when no new fix came: `d` None). Returns the NIS."""
-        self.x, self.P = kf_predict(self.x, self.P, self.F, self.GQG, u=A, B=self.G)  # (20), (21)
+        self.x, self.P = predict(self.x, self.P, self.F, self.GQG, self.G * A)  # (20), (21)
         self.t += self.T
         rows, zs, rs = [], [], []
         if d is not None:
@@ -95,8 +94,8 @@ class PaperFilter:
             H = _H_SOG_C if u_c is not None else _H_SOG
         z, R = np.array(zs), np.diag(rs)
         del rows
-        _, _, nis = innovation(self.x, self.P, z, R, H)
-        self.x, self.P = update(self.x, self.P, z, R, H)  # (22)–(25)
+        y, S, nis = innovation(self.x, self.P, z, R, H)
+        self.x, self.P = update(self.x, self.P, y, S, R, H)  # (22)–(25)
         return nis
 
 
@@ -136,7 +135,7 @@ class PaperModel:
             new_fix = self._fix is not None and (self._used_fix is None or self._fix[0] > self._used_fix[0])
             if sog is None or (sog[0] <= self._used_sog_t and not new_fix):
                 # Nothing new from the GNSS: the time update (20)-(21) alone.
-                f.x, f.P = kf_predict(f.x, f.P, f.F, f.GQG, u=self._A, B=f.G)
+                f.x, f.P = predict(f.x, f.P, f.F, f.GQG, f.G * self._A)
                 f.t += f.T
                 continue
             self._used_sog_t = sog[0]

@@ -16,6 +16,11 @@ from typing import Any
 
 import numpy as np
 
+try:  # what np.linalg.eigvalsh calls, without its checks (see kalman.py)
+    from numpy.linalg._umath_linalg import eigvalsh_lo as _eigvalsh_lo
+except ImportError:  # pragma: no cover
+    _eigvalsh_lo = np.linalg.eigvalsh
+
 from .config import StwConfig
 from .current import C, CurrentFilter, CurrentParams
 from .dvl import LogCalibration
@@ -38,6 +43,12 @@ CROSS_GATE = 10.83
 
 def unit(angle: float) -> np.ndarray:
     return np.array([math.cos(angle), math.sin(angle)])
+
+
+def _worst_std(P: np.ndarray) -> float:
+    """1-σ of the ground velocity along its worst axis: √ of the largest eigenvalue of
+    P_v (LAPACK's, through numpy's ufunc, as np.linalg.eigvalsh gives it)."""
+    return math.sqrt(max(float(_eigvalsh_lo(P[VEL, VEL])[-1]), 0.0))
 
 
 class VectorModel:
@@ -160,6 +171,20 @@ class VectorModel:
 
     # --- output ---
     def estimate(self, t: float, heading: float | None) -> dict[str, Any] | None:
+        """The published fields at t (the log's own fields included)."""
+        res = self._estimate(t, heading)
+        return None if res is None else res[0]
+
+    def publishable(self, t: float, heading: float | None) -> tuple[dict[str, Any], float] | None:
+        """`estimate` and `ground_std` at t from one prediction of the ground filter
+        (a tick asks for both)."""
+        res = self._estimate(t, heading)
+        if res is None:
+            return None
+        out, P = res
+        return out, _worst_std(P)
+
+    def _estimate(self, t: float, heading: float | None) -> tuple[dict[str, Any], np.ndarray] | None:
         g, cur = self.ground, self.current
         if g is None or cur is None:
             return None
@@ -169,20 +194,20 @@ class VectorModel:
         c = y[C]
         w = v - c
         Pw = P[VEL, VEL] + Pc[C, C]
-        stw = float(math.hypot(*w))
+        stw = float(math.hypot(w[0], w[1]))
         if stw > 0.1:
             j = w / stw
             stw_var = float(j @ Pw @ j)
         else:
             stw_var = float(np.trace(Pw))
-        sog = float(math.hypot(*v))
+        sog = float(math.hypot(v[0], v[1]))
         track = v / sog if sog > 0.1 else None
         ahead = unit(heading) if heading is not None else track
         out: dict[str, Any] = {
             "stw": stw,
             "stw_std": math.sqrt(max(stw_var, 0.0)),
             "sog": sog,
-            "current": float(math.hypot(*c)),
+            "current": float(math.hypot(c[0], c[1])),
             "distance": self.distance + sog * max(0.0, t - g.t),
             "stw_long": None if ahead is None else float(w @ ahead),
             "stw_trans": None if ahead is None else float(w @ np.array([-ahead[1], ahead[0]])),
@@ -191,14 +216,14 @@ class VectorModel:
         }
         if self.log is not None:
             out.update(self.log.values())
-        return out
+        return out, P
 
     def ground_std(self, t: float) -> float:
         """1-σ of the ground velocity at t along its worst axis (m/s)."""
         if self.ground is None:
             return math.inf
         _, P = self.ground.predicted(t)
-        return math.sqrt(max(float(np.linalg.eigvalsh(P[VEL, VEL])[-1]), 0.0))
+        return _worst_std(P)
 
     def current_sigma(self) -> float | None:
         if self.current is None:
