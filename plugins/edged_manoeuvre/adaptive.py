@@ -26,6 +26,7 @@ configured variance. Frozen while QScale is raised: a manoeuvre is not sensor no
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 
@@ -206,9 +207,17 @@ class NoiseEstimate:
         self.prime_blocks = prime
         self._scatter_sum = np.zeros_like(self.var0)
         self._scatter_n = 0
+        self._R: tuple[np.ndarray, np.ndarray] | None = None  # (var, diag(var))
 
     def R(self) -> np.ndarray:
-        return np.diag(self.var)
+        """diag(var), read-only: made again only when var has changed (each change
+        makes a new `var`)."""
+        made = self._R
+        if made is None or made[0] is not self.var:
+            R = np.diag(self.var)
+            R.flags.writeable = False
+            self._R = made = (self.var, R)
+        return made[1]
 
     @property
     def priming(self) -> bool:
@@ -227,18 +236,28 @@ class NoiseEstimate:
         """One applied update's innovation y, its covariance S and the R it used."""
         if self.priming:
             return
+        if S.shape == (1, 1):  # one row, as scalars (the same products)
+            r, y0 = float(R[0, 0]), float(y[0])
+            rsi = r * (1.0 / float(S[0, 0]))
+            eps = rsi * y0
+            a = max(self.alpha, 1.0 / (self.n + 2))
+            v = (1 - a) * float(self.var[0]) + a * (eps * eps + (r - rsi * r))
+            self.var = np.array([min(max(v, float(self.lo[0])), float(self.hi[0]))])
+            self.n += 1
+            return
         RSi = R @ np.linalg.inv(S) if S.shape[0] > 2 else R @ _inv(S)
         eps = RSi @ y
-        sample = eps * eps + np.diag(R - RSi @ R)
+        sample = eps * eps + (R - RSi @ R).diagonal()
         a = max(self.alpha, 1.0 / (self.n + 2))  # the first samples count more: a fast start
-        self.var = np.clip((1 - a) * self.var + a * sample, self.lo, self.hi)
+        # np.clip(·, lo, hi) as its two ufuncs (the same values: lo and hi are positive)
+        self.var = np.minimum(np.maximum((1 - a) * self.var + a * sample, self.lo), self.hi)
         self.n += 1
 
     def ceiling(self, top: np.ndarray) -> None:
         """No more than `top` (the readings' own roughness says so, `Roughness`): when
         the process noise is raised, S ≫ R and the innovations cannot tell R (a
         0.001 °/s gyro stayed at the 0.05 °/s it was started from)."""
-        self.var = np.clip(np.minimum(self.var, top), self.lo, self.hi)
+        self.var = np.minimum(np.maximum(np.minimum(self.var, top), self.lo), self.hi)  # np.clip (`add`)
 
     def sigma(self) -> list[float]:
         return [float(math.sqrt(v)) for v in self.var]
@@ -267,7 +286,8 @@ class Roughness:
     def __init__(self, window: int = 101) -> None:
         self.window = window
         self._z: deque[tuple[float, np.ndarray]] = deque(maxlen=len(self.COEF))
-        self._d2: deque[np.ndarray] = deque(maxlen=window)
+        self._d2: deque[list[float]] = deque()  # the last `window` squared differences, per row
+        self._sorted: list[list[float]] = []  # the same, each row sorted (its median at hand)
 
     def add(self, t: float, z: np.ndarray, diff) -> np.ndarray | None:
         """One reading (`diff(a, b)` the kind's residual, angles wrapped); the bound on
@@ -276,16 +296,36 @@ class Roughness:
         if len(self._z) < len(self.COEF):
             return None
         ts = [p[0] for p in self._z]
-        steps = np.diff(ts)
-        if steps.min() <= 0.0 or steps.max() - steps.min() > 0.2 * steps.max():
+        steps = [b - a for a, b in zip(ts, ts[1:])]
+        lo, hi = min(steps), max(steps)
+        if lo <= 0.0 or hi - lo > 0.2 * hi:
             return None  # not a steady interval: the difference mixes in the signal's slope
         ref = self._z[2][1]  # differences about the middle reading (angles wrapped)
         d = sum(c * diff(zk, ref) for c, (_, zk) in zip(self.COEF, self._z))
         self._z.clear()  # the next difference from the next five readings
-        self._d2.append(d * d)
+        self._push((d * d).tolist())
         if len(self._d2) < self.window // 2:
             return None
-        return self.SLACK * np.median(np.array(self._d2), axis=0) / (self.GAIN * 0.455)
+        return np.array([self.SLACK * _median(rows) / (self.GAIN * 0.455) for rows in self._sorted])
+
+    def _push(self, d2: list[float]) -> None:
+        """One squared difference into the window, the oldest out of it (each row's
+        sorted list follows: a median of a hundred values without sorting them again)."""
+        if not self._sorted:
+            self._sorted = [[] for _ in d2]
+        if len(self._d2) >= self.window:
+            for rows, old in zip(self._sorted, self._d2.popleft()):
+                del rows[bisect.bisect_left(rows, old)]
+        self._d2.append(d2)
+        for rows, v in zip(self._sorted, d2):
+            bisect.insort(rows, v)
+
+
+def _median(s: list[float]) -> float:
+    """The median of sorted values, as `np.median` takes it: the middle one, or the mean
+    of the middle two."""
+    n = len(s)
+    return s[n // 2] if n % 2 else (s[n // 2 - 1] + s[n // 2]) / 2
 
 
 def _inv(S: np.ndarray) -> np.ndarray:

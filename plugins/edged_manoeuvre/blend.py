@@ -100,31 +100,34 @@ class ForecastBlend:
         The subsets of one size are solved in one stacked `np.linalg.solve` (the same
         LAPACK call per matrix as one at a time, without its Python overhead for each
         of the 31 subsets of 5 candidates); a stack with a singular matrix is solved one
-        matrix at a time, that one left out. Sums, traces and the feasibility test are
-        taken over the stack with the same operations in the same order as for one
-        subset, so that the weights are the same to the last bit (a test compares them
-        with the one-at-a-time search)."""
+        matrix at a time, that one left out. Sums, traces, the feasibility test and the
+        feasible weights are taken over the stack with the same operations in the same
+        order as for one subset, so that the weights are the same to the last bit (a
+        test compares them with the one-at-a-time search); only each candidate's
+        squared error wᵀGw is taken one at a time (BLAS's own product)."""
         G = self._G / self.samples
         best, best_j = np.eye(self.n)[self._fallback], float(G[self._fallback, self._fallback])
-        for k, subs, rows, cols, eye in self._subsets:
+        for k, idx, rows, cols, eye, ones, at in self._subsets:
             gs = G[rows, cols]  # (m, k, k): every subset's block of G
-            scale = 1e-9 * (np.trace(gs, axis1=1, axis2=2) / k + 1e-12)
+            scale = 1e-9 * (gs.trace(axis1=1, axis2=2) / k + 1e-12)
             gs = gs + eye * scale[:, None, None]  # equal candidates: singular
-            A, solved = _solve_each(gs, k)
+            A, solved = _solve_each(gs, ones)
             sums = A.sum(axis=1)
             with np.errstate(divide="ignore", invalid="ignore"):
                 W = A / sums[:, None]
-            usable = solved & (sums > 0.0) & ~np.any(W < -1e-12, axis=1)
-            for i in np.flatnonzero(usable):
-                w = np.zeros(self.n)
-                w[list(subs[i])] = np.clip(W[i], 0.0, None)
-                w /= w.sum()
+            usable = np.flatnonzero(solved & (sums > 0.0) & ~(W < -1e-12).any(axis=1))
+            if not usable.size:
+                continue
+            ws = np.zeros((usable.size, self.n))  # each feasible subset's weights, on all candidates
+            ws[at[: usable.size], idx[usable]] = np.maximum(W[usable], 0.0)  # np.clip(·, 0, None)
+            ws /= ws.sum(axis=1)[:, None]
+            for w in ws:
                 j = float(w @ G @ w)
                 if j < best_j - 1e-12:
                     best, best_j = w, j
         if best_j > (1.0 - self.margin) * float(G[self._fallback, self._fallback]):
             return np.eye(self.n)[self._fallback]  # not worth what the window cannot promise
-        return best
+        return best.copy()
 
     def forget_pending(self) -> None:
         """The filter started again: its earlier predictions are not this filter's."""
@@ -141,29 +144,29 @@ class ForecastBlend:
                 "rms": {n: (None if not math.isfinite(r) else round(float(r), 2)) for n, r in zip(self.names, self.rms)}}
 
 
-def _subsets(n: int) -> list[tuple[int, list[tuple[int, ...]], np.ndarray, np.ndarray, np.ndarray]]:
-    """Per size k: the subsets of range(n) in `itertools.combinations` order, with the
-    row and column indices that take their k × k blocks of G at once, and eye(k)."""
+def _subsets(n: int) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per size k: the subsets of range(n) in `itertools.combinations` order (m × k
+    indices), with the row and column indices that take their k × k blocks of G at
+    once, eye(k), the right-hand sides 1 (m × k × 1) and the rows' numbers (m × 1)."""
     out = []
     for k in range(1, n + 1):
-        subs = list(itertools.combinations(range(n), k))
-        idx = np.array(subs, dtype=np.intp)
-        out.append((k, subs, idx[:, :, None], idx[:, None, :], np.eye(k)))
+        idx = np.array(list(itertools.combinations(range(n), k)), dtype=np.intp)
+        m = len(idx)
+        out.append((k, idx, idx[:, :, None], idx[:, None, :], np.eye(k), np.ones((m, k, 1)), np.arange(m)[:, None]))
     return out
 
 
-def _solve_each(gs: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """g⁻¹1 of every block of the stack, and which blocks could be solved (a singular
-    one's row is NaN and marked False)."""
-    ones = np.ones(k)
+def _solve_each(gs: np.ndarray, ones: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """g⁻¹1 of every block of the stack (`ones` its right-hand sides), and which blocks
+    could be solved (a singular one's row is NaN and marked False)."""
     try:
-        return np.linalg.solve(gs, np.broadcast_to(ones, (len(gs), k))[..., None])[..., 0], np.ones(len(gs), bool)
+        return np.linalg.solve(gs, ones)[..., 0], np.ones(len(gs), bool)
     except np.linalg.LinAlgError:
-        A = np.full((len(gs), k), np.nan)
+        A = np.full(ones.shape[:2], np.nan)
         solved = np.zeros(len(gs), bool)
         for i, g in enumerate(gs):
             try:
-                A[i] = np.linalg.solve(g, ones)
+                A[i] = np.linalg.solve(g, ones[i, :, 0])
                 solved[i] = True
             except np.linalg.LinAlgError:
                 pass

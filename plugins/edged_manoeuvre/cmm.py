@@ -66,7 +66,10 @@ class Cmm:
         at, an = x[..., AT], x[..., AN]
         return at * fx - an * fy, at * fy + an * fx
 
-    def f(self, x: np.ndarray) -> np.ndarray:
+    def f(self, x: np.ndarray | list[float]) -> np.ndarray | list[float]:
+        """ẋ = f(x), x (n,), (N, n) or one state as a list (`model.transition`)."""
+        if isinstance(x, list):
+            return self.f(np.array(x)).tolist()
         d = np.zeros_like(x)
         d[..., 0] = x[..., VN]
         d[..., 1] = x[..., VE]
@@ -95,7 +98,8 @@ class Cmm:
         J[1, AT], J[1, AN] = fy, fx
         return J
 
-    def F(self, x: np.ndarray) -> np.ndarray:
+    def F(self, x: np.ndarray | list[float]) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
         A = np.zeros((self.n, self.n))
         A[0, VN] = A[1, VE] = A[PSI, R] = 1.0
         A[VN:VE + 1, :] += self._accel_ne_jacobian(x)
@@ -165,6 +169,11 @@ class Cmm:
         an_, ae_ = self._accel_ne(x)
         abx, aby = an_ * c + ae_ * s, -an_ * s + ae_ * c
         return np.array([u, v, abx + r * v, aby - r * u])
+
+    def body_var(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """The variances of `body`: diag J P Jᵀ."""
+        J = self.body_jacobian(x)
+        return np.diag(J @ P @ J.T)
 
     def body_jacobian(self, x: np.ndarray) -> np.ndarray:
         """∂body/∂x by central differences (the output's σ only; not on the filter's path)."""

@@ -242,7 +242,10 @@ class ManoeuvreCore(UpdateSteps, Estimator):
         when it is muted (a copy, the source not kept of two that disagree, a GNSS
         receiver standing by). Only what is heard starts the filter."""
         k = KINDS[kind]
-        fault = self.faults.judge(kind, source, t, z, float(self._sigma(kind, source)[0]))
+        # the source's σ says how far a repeating compass may let the ship turn (only a
+        # heading's is read: `SensorFaults.judge`)
+        sigma = float(self._sigma(kind, source)[0]) if kind == "heading" else 0.0
+        fault = self.faults.judge(kind, source, t, z, sigma)
         if fault is not None:
             self.rejected[f"{kind}.{fault}"] += 1
             if self.faults.new_doubt and self.filter is not None:
@@ -374,16 +377,14 @@ class ManoeuvreCore(UpdateSteps, Estimator):
     def _values(self, t: float, x: np.ndarray, P: np.ndarray, plane: LocalPlane) -> dict[str, Any]:
         """The published estimate (DESIGN §6 `est/manoeuvre`) of state x, P at t."""
         m = self.model
-        std = np.sqrt(np.maximum(np.diag(P), 0.0))
-        Jb = m.body_jacobian(x)
-        body_std = np.sqrt(np.maximum(np.diag(Jb @ P @ Jb.T), 0.0))
+        std = np.sqrt(np.maximum(P.diagonal(), 0.0)).tolist()
+        body_std = np.sqrt(np.maximum(m.body_var(x, P), 0.0)).tolist()
         vn, ve = m.ground_velocity(x)
         u, v, a_u, a_v = (float(b) for b in m.body(x))
         lat, lon = plane.to_geodetic(float(x[0]), float(x[1]))
         self.sideways.judge(t, u, v, math.hypot(vn, ve))
-        std_map = {m.names[i]: float(std[i]) for i in range(m.n)}
-        std_map.update({"u": float(body_std[0]), "v": float(body_std[1]),
-                        "a_u": float(body_std[2]), "a_v": float(body_std[3])})
+        std_map = dict(zip(m.names, std))
+        std_map.update(zip(("u", "v", "a_u", "a_v"), body_std))
         anchors = Anchors(self.wave.r_lf, self._raw_fix, self.track.velocity(), self._vg)
         return {
             "converging": self.converging,

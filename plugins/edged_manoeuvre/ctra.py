@@ -44,18 +44,24 @@ class Ctra:
         self.yaw = YawAcceleration(yaw_tau, base)
         self.n = base + self.yaw.size
         self.names = NAMES[:base] + ("r_dot",) * self.yaw.size
+        # F's entries that do not depend on the state, set once (`F` copies them)
+        self._F0 = np.zeros((self.n, self.n))
+        self._F0[U, AU] = self._F0[V, AV] = self._F0[PSI, R] = 1.0
+        self.yaw.F(self._F0)
+        self._F0.flags.writeable = False
+        self._zeros = [0.0] * (self.n - 5)  # the tail of f after ψ̇ (ṙ = 0, ȧ = 0, ḃ = 0)
 
     # -- system model (Table 1) ------------------------------------------------------
-    def f(self, x: np.ndarray) -> np.ndarray:
-        """ẋ = f(x); x of shape (n,) or (N, n)."""
-        if x.ndim == 1:  # one state: scalar maths, several times faster than array ops
+    def f(self, x: np.ndarray | list[float]) -> np.ndarray | list[float]:
+        """ẋ = f(x); x one state (a list of floats gives a list: `model.transition`),
+        of shape (n,) or (N, n)."""
+        if isinstance(x, list) or x.ndim == 1:  # one state: scalar maths, no array ops
             u, v, psi = float(x[U]), float(x[V]), float(x[PSI])
             c, s = math.cos(psi), math.sin(psi)
-            d = np.zeros(self.n)
-            d[0], d[1] = u * c - v * s, u * s + v * c  # eqs. (4), (5)
-            d[U], d[V], d[PSI] = x[AU], x[AV], x[R]
+            d = [u * c - v * s, u * s + v * c, float(x[AU]), float(x[AV]), float(x[R])]  # eqs. (4), (5)
+            d += self._zeros
             self.yaw.f(x, d)
-            return d
+            return d if isinstance(x, list) else np.array(d)
         u, v, psi = x[..., U], x[..., V], x[..., PSI]
         c, s = np.cos(psi), np.sin(psi)
         d = np.zeros_like(x)
@@ -67,15 +73,13 @@ class Ctra:
         self.yaw.f(x, d)
         return d
 
-    def F(self, x: np.ndarray) -> np.ndarray:
-        """∂f/∂x at x (n,)."""
+    def F(self, x: np.ndarray | list[float]) -> np.ndarray:
+        """∂f/∂x at x (one state, (n,) or a list): the constant entries, then these."""
         u, v, psi = float(x[U]), float(x[V]), float(x[PSI])
         c, s = math.cos(psi), math.sin(psi)
-        A = np.zeros((self.n, self.n))
+        A = self._F0.copy()
         A[0, U], A[0, V], A[0, PSI] = c, -s, -u * s - v * c
         A[1, U], A[1, V], A[1, PSI] = s, c, u * c - v * s
-        A[U, AU] = A[V, AV] = A[PSI, R] = 1.0
-        self.yaw.F(A)
         return A
 
     # -- measurement model (Table 2), one sensor's rows ----------------------------------
@@ -89,10 +93,11 @@ class Ctra:
             ay = x[..., AV] + u * r  # eq. (12)
             if self.bias:
                 ax, ay = ax + x[..., BX], ay + x[..., BY]
-            return np.stack([ax, ay], axis=-1)
+            return np.array([ax, ay]) if x.ndim == 1 else np.stack([ax, ay], axis=-1)
         if kind == "velocity":  # the body velocities turned to north, east (eq. 8)
             u, v, c, s = x[..., U], x[..., V], np.cos(x[..., PSI]), np.sin(x[..., PSI])
-            return np.stack([u * c - v * s, u * s + v * c], axis=-1)
+            ne = (u * c - v * s, u * s + v * c)
+            return np.array(ne) if x.ndim == 1 else np.stack(ne, axis=-1)
         raise KeyError(kind)
 
     def H(self, kind: str, x: np.ndarray) -> np.ndarray:
@@ -152,6 +157,10 @@ class Ctra:
         J = np.zeros((4, self.n))
         J[0, U] = J[1, V] = J[2, AU] = J[3, AV] = 1.0
         return J
+
+    def body_var(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """The variances of `body` (diag J P Jᵀ): its quantities are states, so P's own."""
+        return P.diagonal()[[U, V, AU, AV]]
 
     def shift(self, x: np.ndarray, dn: float, de: float) -> None:
         """Move the position states by (dn, de) metres (the plane's origin moved)."""

@@ -46,7 +46,11 @@ class Decimator:
              angle_rows: tuple[int, ...] = ()) -> tuple[float, np.ndarray, int] | None:
         """(t, z, samples, scatter) to update with now, or None while a block fills;
         scatter is the per-row variance of the mean from the block's own readings
-        (None for a single reading, angles, or repeated readings)."""
+        (None for a single reading, angles, or repeated readings).
+
+        The sums are kept as floats, row by row (the same additions as arrays would
+        make, so the same bits): a reading of one or two rows costs numpy more in calls
+        than in arithmetic, and most readings only add to a block."""
         if self.period <= 0.0:
             return t, z, 1, None
         s = self._src.get((kind, source))
@@ -62,28 +66,30 @@ class Decimator:
         if s.interval is None or s.interval > self.period * (2.0 / 3.0):
             s.n = 0
             return t, z, 1, None
+        zl = z.tolist()
         if s.n == 0:
-            s.t0, s.t_sum, s.z_sum = t, 0.0, np.zeros_like(z)
+            zero = [0.0] * len(zl)
+            s.t0, s.t_sum, s.z_sum = t, 0.0, zero
             s.s_sum, s.c_sum = np.zeros_like(z), np.zeros_like(z)
-            s.tt_sum, s.tz_sum, s.zz_sum = 0.0, np.zeros_like(z), np.zeros_like(z)
+            s.tt_sum, s.tz_sum, s.zz_sum = 0.0, zero, zero
             s.last_z, s.repeats = None, 0
         s.n += 1
         s.t_sum += t
-        s.z_sum = s.z_sum + z
+        s.z_sum = [a + b for a, b in zip(s.z_sum, zl)]
         tr = t - s.t0
         s.tt_sum += tr * tr
-        s.tz_sum = s.tz_sum + tr * z
-        s.zz_sum = s.zz_sum + z * z
-        if s.last_z is not None and np.array_equal(z, s.last_z):
+        s.tz_sum = [a + tr * b for a, b in zip(s.tz_sum, zl)]
+        s.zz_sum = [a + b * b for a, b in zip(s.zz_sum, zl)]
+        if s.last_z is not None and zl == s.last_z:
             s.repeats += 1
-        s.last_z = z
+        s.last_z = zl
         if angle_rows:
             s.s_sum = s.s_sum + np.sin(z)
             s.c_sum = s.c_sum + np.cos(z)
         if t - s.t0 < self.period - 0.5 * s.interval:
             return None
         n = s.n
-        zm = s.z_sum / n
+        zm = np.array(s.z_sum) / n
         for i in angle_rows:
             zm[i] = wrap_2pi(math.atan2(s.s_sum[i], s.c_sum[i]))
         s.n = 0
@@ -97,7 +103,7 @@ class Decimator:
             return None
         tm = (s.t_sum - n * s.t0) / n  # mean of the times since t0
         stt = s.tt_sum - n * tm * tm
-        stz = s.tz_sum - n * tm * zm
-        szz = s.zz_sum - n * zm * zm
+        stz = np.array(s.tz_sum) - n * tm * zm
+        szz = np.array(s.zz_sum) - n * zm * zm
         res = szz - (stz * stz / stt if stt > 0.0 else 0.0)
         return np.maximum(res, 0.0) / ((n - 2) * n)

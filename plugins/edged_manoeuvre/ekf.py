@@ -20,16 +20,17 @@ holds the two to 1e-12.
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
 
-from edged.angles import wrap_2pi
+from edged.angles import wrap_2pi, wrap_pi
 
 from .cmm import Cmm
 from .ctra import Ctra
 from .filter import KalmanFilter
-from .model import KINDS, PSI, Innovation, _eye, inv_small, judge, reset_position, residual, transition
+from .model import KINDS, PSI, STATE_ROWS, Innovation, Kind, _eye, judge_inv, reset_position, residual, transition
 
 
 class Ekf(KalmanFilter):
@@ -50,21 +51,72 @@ class Ekf(KalmanFilter):
 
     def update(self, kind: str, z: np.ndarray, R: np.ndarray, gate: float | None = None) -> Innovation:
         k = KINDS[kind]
+        rows = STATE_ROWS.get(kind)
+        if rows is None:
+            return self._update(k, z, R, gate)
+        if len(rows) == 1:
+            return self._update_scalar(k, rows[0], z, R, gate)
+        return self._update_states(k, rows[0], rows[-1] + 1, z, R, gate)
+
+    def _update(self, k: Kind, z: np.ndarray, R: np.ndarray, gate: float | None) -> Innovation:
+        """The update as written in the module's docstring, for any rows of h."""
         x, P = self.x, self.P
-        H = self.model.H(kind, x)
-        y = residual(k, z, self.model.h(kind, x))
+        H = self.model.H(k.name, x)
+        y = residual(k, z, self.model.h(k.name, x))
         PHt = P @ H.T
         S = H @ PHt + R
-        nis, rc, apply = judge(y, S, gate)
+        nis, rc, apply, Si = judge_inv(y, S, gate)
         if not apply:
             return Innovation(y, S, nis, rc, False)
-        K = PHt @ inv_small(S)
-        x = x + K @ y
-        x[PSI] = wrap_2pi(x[PSI])
+        K = PHt @ Si
         IKH = _eye(len(x)) - K @ H
-        P = IKH @ P @ IKH.T + K @ R @ K.T  # Joseph form: stays symmetric positive
+        return self._apply(x + K @ y, IKH, K, R, Innovation(y, S, nis, rc, True))
+
+    def _update_states(self, k: Kind, a: int, b: int, z: np.ndarray, R: np.ndarray,
+                       gate: float | None) -> Innovation:
+        """A sensor that reads states a..b−1 themselves (a position fix): H is rows of
+        the identity, so P Hᵀ is P's columns, H P Hᵀ its block and K H the gain put in
+        those columns; the same numbers as the products, without them."""
+        x, P = self.x, self.P
+        y = residual(k, z, x[a:b])
+        PHt = P[:, a:b].copy()
+        S = PHt[a:b] + R
+        nis, rc, apply, Si = judge_inv(y, S, gate)
+        if not apply:
+            return Innovation(y, S, nis, rc, False)
+        K = PHt @ Si
+        IKH = _eye(len(x)).copy()
+        IKH[:, a:b] -= K
+        return self._apply(x + K @ y, IKH, K, R, Innovation(y, S, nis, rc, True))
+
+    def _update_scalar(self, k: Kind, j: int, z: np.ndarray, R: np.ndarray, gate: float | None) -> Innovation:
+        """A sensor of one row that reads state j (a heading, a yaw rate), as scalars:
+        y = z − x_j (wrapped for an angle), S = P_jj + R (rcond 1 when positive and
+        finite), NIS = y²/S, K = P_·j / S."""
+        x, P = self.x, self.P
+        y0 = float(z[0]) - float(x[j])
+        if k.angle_rows:
+            y0 = wrap_pi(y0)
+        s = float(P[j, j]) + float(R[0, 0])
+        y, S = np.array([y0]), np.array([[s]])
+        if not (math.isfinite(s) and s > 0.0):
+            return Innovation(y, S, math.inf, 0.0, False)
+        inv = 1.0 / s
+        nis = y0 * inv * y0
+        if not (gate is None or nis <= gate):
+            return Innovation(y, S, nis, 1.0, False)
+        K = P[:, j] * inv
+        IKH = _eye(len(x)).copy()
+        IKH[:, j] -= K
+        return self._apply(x + K * y0, IKH, K.reshape(-1, 1), R, Innovation(y, S, nis, 1.0, True))
+
+    def _apply(self, x: np.ndarray, IKH: np.ndarray, K: np.ndarray, R: np.ndarray, inn: Innovation) -> Innovation:
+        """x⁺ (ψ wrapped) and P⁺ = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ (Joseph form: stays
+        symmetric positive)."""
+        x[PSI] = wrap_2pi(x[PSI])
+        P = IKH @ self.P @ IKH.T + K @ R @ K.T
         self.x, self.P = x, 0.5 * (P + P.T)
-        return Innovation(y, S, nis, rc, True)
+        return inn
 
     def shift(self, dn: float, de: float) -> None:
         """The plane's origin moved by (dn, de) m: positions follow, nothing else."""

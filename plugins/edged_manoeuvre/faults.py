@@ -77,13 +77,13 @@ class SensorFaults:
         if s is None:
             s = self._streams[(kind, source)] = _Stream()
         why = None
-        if kind == "accel" and float(np.max(np.abs(z))) > ACCEL_MAX:
+        value = tuple(z.tolist())
+        if kind == "accel" and max(map(abs, value)) > ACCEL_MAX:
             why = "range"
-            s.why = f"reading {float(np.max(np.abs(z))):.3g} m/s², beyond what a hull does (saturated?)"
-        elif kind == "yaw_rate" and abs(float(z[0])) > RATE_MAX:
+            s.why = f"reading {max(map(abs, value)):.3g} m/s², beyond what a hull does (saturated?)"
+        elif kind == "yaw_rate" and abs(value[0]) > RATE_MAX:
             why = "range"
-            s.why = f"reading {float(z[0]) / DEG:.1f}°/s, beyond what a hull does"
-        value = tuple(float(v) for v in z)
+            s.why = f"reading {value[0] / DEG:.1f}°/s, beyond what a hull does"
         if value == s.value:
             s.count += 1
         else:

@@ -14,8 +14,7 @@ sends none).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,11 +41,10 @@ WITNESS_NOISE = 0.0
 Row = dict[str, float]
 
 
-@dataclass(frozen=True)
-class Anchors:
+class Anchors(NamedTuple):
     """What the candidates other than the model start from: the low-passed yaw rate,
     the last fix taken (t, lat, lon), the fixes' own velocity (n, e) and the GNSS's
-    SOG/COG (t, v_n, v_e)."""
+    SOG/COG (t, v_n, v_e). (A named tuple: one is made at every estimate.)"""
 
     r_lf: float | None
     raw_fix: tuple[float, float, float] | None
@@ -95,7 +93,7 @@ class Forecast:
         x_lf = np.array(x, dtype=float)
         if anchors.r_lf is not None:
             x_lf[R] = anchors.r_lf
-        runs_lf = self.predictor.run(x_lf, P, Qc)
+        states_lf = self.predictor.states(x_lf)  # its positions and headings only
         fix = anchors.raw_fix
         if fix is not None and t - fix[0] <= self.cfg.reset_after:
             t_fix, lat0, lon0 = fix
@@ -110,7 +108,7 @@ class Forecast:
         else:
             vn, ve = vt
         psi0 = float(x[PSI])
-        for b, row, (_, x_m, _), (_, x_l, _) in zip(self.blends, rows, runs, runs_lf):
+        for b, row, (_, x_m, _), x_l in zip(self.blends, rows, runs, states_lf):
             ahead = t + b.horizon - t_fix
             lat_l, lon_l = plane.to_geodetic(float(x_l[0]), float(x_l[1]))
             lat_s, lon_s = plane.to_geodetic(float(x[0]) + vf[0] * b.horizon, float(x[1]) + vf[1] * b.horizon)

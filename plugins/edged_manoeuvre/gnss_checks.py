@@ -67,8 +67,7 @@ class GnssChecks:
         itself (saturated accelerometers once took it to 457 m/s): how far off (m/s)
         then, else None."""
         en, ee = model.ground_velocity(x)
-        J = model.body_jacobian(x)
-        body_var = np.diag(J @ P @ J.T)
+        body_var = model.body_var(x, P)
         sigma = math.sqrt(max(float(body_var[0] + body_var[1]), 0.0) + SOG_SIGMA**2)
         off = math.hypot(en - vn, ee - ve)
         if off > max(SOG_OFF, SOG_OFF_SIGMAS * sigma):

@@ -57,10 +57,16 @@ class YawAcceleration:
     def size(self) -> int:
         return 0 if self.index is None else 1
 
-    def f(self, x: np.ndarray, d: np.ndarray) -> None:
-        """Adds ψ̇'s companion rows to d = f(x): ṙ = r_dot, (d/dt) r_dot = −r_dot/τ."""
+    def f(self, x: np.ndarray | list[float], d: np.ndarray | list[float]) -> None:
+        """Adds ψ̇'s companion rows to d = f(x): ṙ = r_dot, (d/dt) r_dot = −r_dot/τ.
+        x and d: one state as a list of floats (`transition`), or arrays (…, n)."""
         i = self.index
-        if i is not None:
+        if i is None:
+            return
+        if isinstance(d, list):
+            d[R] = x[i]
+            d[i] = -x[i] / self.tau
+        else:
             d[..., R] = x[..., i]
             d[..., i] = -x[..., i] / self.tau
 
@@ -130,31 +136,47 @@ def rk4(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float, substep
     return x
 
 
-def transition(F: Callable[[np.ndarray], np.ndarray], f: Callable[[np.ndarray], np.ndarray],
+#: f and F of one state as the filters integrate it: x a list of floats, f(x) a list.
+Floats = list[float]
+
+
+def rk4_step(f: Callable[[Floats], Floats], x: Floats, h: float) -> tuple[Floats, Floats]:
+    """One classical Runge–Kutta step of h seconds of one state, as floats, and the
+    step's midpoint x + h/2·f(x) (its second stage). Each entry takes the same
+    operations as `rk4`'s arrays, so the same bits; for a state of 8–11 entries numpy
+    would spend ten times the arithmetic in its per-call cost."""
+    half = 0.5 * h
+    k1 = f(x)
+    xm = [a + half * b for a, b in zip(x, k1)]
+    k2 = f(xm)
+    k3 = f([a + half * b for a, b in zip(x, k2)])
+    k4 = f([a + h * b for a, b in zip(x, k3)])
+    sixth = h / 6.0
+    return [a + sixth * (p + 2.0 * q + 2.0 * r + s) for a, p, q, r, s in zip(x, k1, k2, k3, k4)], xm
+
+
+def transition(F: Callable[[Floats], np.ndarray], f: Callable[[Floats], Floats],
                x: np.ndarray, dt: float, substep: float) -> tuple[np.ndarray, np.ndarray]:
     """(x(t + dt), Φ): the state by Runge–Kutta and the state transition matrix of the
     linearised model over the same sub-steps, Φ = Π (I + A_k h + A_k² h²/2) with A_k
     the Jacobian ∂f/∂x at the sub-step's midpoint (x + h/2·f(x), RK4's own second
     stage): second order in h, as the continuous-discrete EKF's covariance needs
-    (Frogerais et al. 2012)."""
+    (Frogerais et al. 2012). The state is integrated as floats (`rk4_step`), Φ as
+    matrices."""
     n = x.shape[0]
     eye = _eye(n)
     if dt <= 0.0:
         return x, eye.copy()
     steps = max(1, math.ceil(dt / substep - 1e-9))
     h = dt / steps
+    xs = x.tolist()
     phi = None
     for _ in range(steps):
-        k1 = f(x)
-        xm = x + 0.5 * h * k1
+        xs, xm = rk4_step(f, xs, h)
         Ah = F(xm) * h
         step = eye + Ah + 0.5 * (Ah @ Ah)
         phi = step if phi is None else step @ phi
-        k2 = f(xm)
-        k3 = f(x + 0.5 * h * k2)
-        k4 = f(x + h * k3)
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return x, phi
+    return np.array(xs), phi
 
 
 _EYES: dict[int, np.ndarray] = {}
@@ -221,16 +243,17 @@ def inv_small(S: np.ndarray) -> np.ndarray:
     return np.linalg.inv(S)
 
 
+#: The sensors that read states directly, the same in both models: the states they read
+#: (consecutive). Their H is rows of the identity.
+STATE_ROWS = {"position": (0, 1), "heading": (PSI,), "yaw_rate": (R,)}
+
+
 def h_state(kind: str, x: np.ndarray) -> np.ndarray | None:
-    """h of the sensors that read a state directly (position, heading, yaw rate), the
-    same in both models; None for the others."""
-    if kind == "position":
-        return x[..., 0:2].copy()
-    if kind == "heading":
-        return x[..., PSI : PSI + 1].copy()
-    if kind == "yaw_rate":
-        return x[..., R : R + 1].copy()
-    return None
+    """h of the sensors that read a state directly (`STATE_ROWS`); None for the others."""
+    rows = STATE_ROWS.get(kind)
+    if rows is None:
+        return None
+    return x[..., rows[0] : rows[-1] + 1].copy()
 
 
 def H_state(kind: str, n: int) -> np.ndarray | None:
@@ -252,11 +275,17 @@ def H_state(kind: str, n: int) -> np.ndarray | None:
 def judge(y: np.ndarray, S: np.ndarray, gate: float | None) -> tuple[float, float, bool]:
     """(NIS, rcond(S), apply?) of an innovation: not applied when S is singular or the
     NIS is beyond the gate; every filter's update asks this before changing anything."""
+    return judge_inv(y, S, gate)[:3]
+
+
+def judge_inv(y: np.ndarray, S: np.ndarray, gate: float | None) -> tuple[float, float, bool, np.ndarray | None]:
+    """`judge`, and S⁻¹ (None when S is singular): the gain needs it again."""
     rc = rcond(S)
     if rc <= 0.0:
-        return float("inf"), rc, False
-    nis = float(y @ inv_small(S) @ y)
-    return nis, rc, gate is None or nis <= gate
+        return float("inf"), rc, False, None
+    Si = inv_small(S)
+    nis = float(y @ Si @ y)
+    return nis, rc, gate is None or nis <= gate, Si
 
 
 def reset_position(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray) -> None:

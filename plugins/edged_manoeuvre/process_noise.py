@@ -50,10 +50,27 @@ class ProcessNoise:
         # members apart collapses it, so an EnKF's process noise is only ever raised.
         self.qscales = {g: QScale(min_base=1.0 if cfg.filter == "enkf" else 1e-3) for g in GROUPS}
         self._last_update: dict[str, float] = {}
+        self._groups_of = {kind: [self.qscales[g] for g, (kinds, _) in GROUPS.items() if kind in kinds]
+                           for kind in {k for kinds, _ in GROUPS.values() for k in kinds}}
+        #: The last Q made, and what it was made of (a rate gyro heard, the groups'
+        #: scales): the scales move only with the updates that adapt them.
+        self._made: tuple[tuple[bool, tuple[float, ...]], np.ndarray] | None = None
 
     def Q(self, t: float | None) -> np.ndarray:
-        """The density to predict with at filter time t."""
+        """The density to predict with at filter time t (read-only: the same array until
+        the scales change)."""
         gyro = t is not None and t - self._last_update.get("yaw_rate", -math.inf) <= DRIVER_SPAN
+        key = (gyro, tuple(q.scale for q in self.qscales.values()))
+        made = self._made
+        if made is None or made[0] != key:
+            Q = self._Q(gyro)
+            if Q is not self.Qc:
+                Q.flags.writeable = False
+            self._made = made = (key, Q)
+        return made[1]
+
+    def _Q(self, gyro: bool) -> np.ndarray:
+        """Qc with the groups' scales (`Q`)."""
         if self._gyro_states is None or gyro:
             if all(q.scale == 1.0 for q in self.qscales.values()):
                 return self.Qc
@@ -83,7 +100,7 @@ class ProcessNoise:
 
     def groups_of(self, kind: str) -> list[QScale]:
         """The groups `kind` may drive."""
-        return [self.qscales[g] for g, (kinds, _) in GROUPS.items() if kind in kinds]
+        return self._groups_of.get(kind, [])
 
     def driven_by(self, kind: str, t: float) -> list[QScale]:
         """The groups whose preferred sensor, of those heard in the last DRIVER_SPAN s,

@@ -104,10 +104,18 @@ class SourceCopies:
         """Record a reading; True when it is a copy of a source heard before that is
         still speaking, or the source not kept of two that disagree. `diff(a, b)` is
         the kind's residual (angles wrapped), `sigma(s)` a source's current 1-σ per row."""
-        last = self._last.setdefault(kind, {})
-        rank = self._rank.setdefault(kind, {})
-        mine = rank.setdefault(source, len(rank))
+        last = self._last.get(kind)
+        if last is None:
+            last = self._last[kind] = {}
+            self._rank[kind] = {}
+        rank = self._rank[kind]
+        mine = rank.get(source)
+        if mine is None:
+            mine = rank[source] = len(rank)
         prev = last.get(source)
+        if prev is not None and len(last) == 1:  # the only source heard: nothing to pair
+            last[source] = (t, z)
+            return False
         window = PAIR_WINDOW if prev is None or t <= prev[0] else min(PAIR_WINDOW, 0.5 * (t - prev[0]))
         floor = self._floor.get(kind)
         muted = False
@@ -167,7 +175,9 @@ class SourceCopies:
     def take_new(self) -> list[Disagreement]:
         """The disagreements found since the last call (the caller may start again
         from the kept source: its state is the two sources' mix)."""
-        new, self._new = self._new, []
+        new = self._new
+        if new:
+            self._new = []
         return new
 
     def duplicates(self) -> list[str]:
