@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from edged.plugin import EstimatorConfig
 
@@ -58,6 +58,10 @@ class ManoeuvreConfig(EstimatorConfig):
     model: Literal["ctra", "cmm"] = "ctra"
     #: Extended, unscented or ensemble Kalman filter.
     filter: Literal["ekf", "ukf", "enkf"] = "ekf"
+    #: In a process of its own by default (every filter): its updates at the IMU's
+    #: 50 Hz then run beside the inputs on another core instead of taking the event
+    #: loop's time (issue 34: a replay of the reference load 16 % faster).
+    worker: Literal["loop", "process"] = "process"
     #: EnKF: members, the random generator's seed, multiplicative inflation per update.
     members: int = Field(100, ge=3, le=100_000)
     seed: int = Field(0, ge=0)
@@ -150,15 +154,6 @@ class ManoeuvreConfig(EstimatorConfig):
         if v is not None:
             return v
         return DEFAULTS[info.data.get("mode", "tuned")][info.field_name]  # type: ignore[index]
-
-    @model_validator(mode="before")
-    @classmethod
-    def _worker_of_filter(cls, data: object) -> object:
-        """The UKF and EnKF run in a process of their own unless told otherwise: at
-        50 Hz their updates would take the event loop from the inputs (`worker`)."""
-        if isinstance(data, dict) and "worker" not in data and data.get("filter") in ("ukf", "enkf"):
-            data = {**data, "worker": "process"}
-        return data
 
     @field_validator("horizons")
     @classmethod

@@ -32,6 +32,10 @@ class StwConfig(EstimatorConfig):
     mode: Literal["vector", "paper"] = "vector"
     #: Published at this rate (estimates per second of data time).
     publish_rate: float = Field(1.0, ge=0.0, le=1000.0)
+    #: In a process of its own by default: the filter then runs beside the inputs and
+    #: the recorder on another core instead of taking the event loop's time (issue 34:
+    #: a replay of the reference load runs 16 % faster with stw and manoeuvre there).
+    worker: Literal["loop", "process"] = "process"
     #: GNSS at 30 s and forecasts at 20 min are normal: stale only after a minute.
     stale_after: float = Field(60.0, ge=0.0, le=86_400.0)
 

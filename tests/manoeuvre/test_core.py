@@ -279,11 +279,11 @@ def test_bad_inputs_are_counted_not_used():
     assert h["rejected"]["position.no_fix"] == 2 and h["rejected"]["heading.late"] == 1
 
 
-@pytest.mark.parametrize("filt", ["ukf", "enkf"])
-def test_the_heavier_filters_run_in_a_process_of_their_own_by_default(filt):
+@pytest.mark.parametrize("filt", ["ekf", "ukf", "enkf"])
+def test_every_filter_runs_in_a_process_of_its_own_by_default(filt):
+    """(issue 34: beside the inputs on another core, not in the event loop's time)"""
     assert ManoeuvreConfig(type="manoeuvre", filter=filt).worker == "process"
     assert ManoeuvreConfig(type="manoeuvre", filter=filt, worker="loop").worker == "loop"
-    assert ManoeuvreConfig(type="manoeuvre").worker == "loop"
 
 
 def test_config_errors_name_the_key():
