@@ -28,7 +28,9 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, ClassVar, Iterator, Literal, NamedTuple, Protocol, runtime_checkable
+from types import MappingProxyType
+from typing import (Any, BinaryIO, Callable, ClassVar, Iterable, Iterator, Literal, Mapping, NamedTuple, Protocol,
+                    runtime_checkable)
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -136,6 +138,20 @@ class OutputConfig(PluginConfig):
     watchdog: float = Field(60.0, gt=0.0, le=3600.0)
 
 
+#: What edged's own outputs' traffic carries, by mark (see `OutputPlugin.own_marks`).
+OwnMarks = Mapping[str, frozenset[str]]
+NO_MARKS: OwnMarks = MappingProxyType({})
+
+
+def own_marks_of(outputs: Iterable[tuple[type, Any]]) -> OwnMarks:
+    """The union of the marks of the outputs (class, configuration) configured."""
+    marks: dict[str, frozenset[str]] = {}
+    for cls, config in outputs:
+        for k, v in cls.own_marks(config).items():
+            marks[k] = marks.get(k, frozenset()) | frozenset(v)
+    return MappingProxyType(marks)
+
+
 @dataclass
 class PluginContext:
     """What the runtime gives a plugin instance: its name, time, health, the router."""
@@ -222,7 +238,12 @@ class InputPlugin(Plugin):
         raise NotImplementedError
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Decoder:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> Decoder:
+        """The decoder of this input's raw records. `own` is what edged's own outputs'
+        traffic carries (`OutputPlugin.own_marks`): a record that bears one of the
+        marks the decoder knows is counted `rejected.own_output`, never decoded, so
+        that an output looped into an input (a shared UDP port, a bus) makes no
+        measurement of edged's own estimates."""
         raise NotImplementedError
 
 
@@ -316,6 +337,14 @@ class OutputPlugin(Plugin):
     #: Route keys this output wants; None = everything but `exclude_keys`.
     keys: ClassVar[frozenset[str] | None] = None
     exclude_keys: ClassVar[frozenset[str]] = frozenset()
+
+    @classmethod
+    def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:
+        """What this output's traffic carries that marks it as edged's own, by mark
+        (`nmea0183.talker`: the talker IDs it sends; `n2k.name`: its NAMEs): every
+        input's decoder is given the union of all outputs' marks and refuses what
+        bears one (DESIGN §4: edged never reads its own output back)."""
+        return {}
 
     async def open(self) -> None:
         """Open sessions and files; raising makes the runtime retry with backoff."""

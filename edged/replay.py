@@ -263,7 +263,7 @@ class Replayer:
             if cfg is not None and getattr(cfg, "type", None) != type_name:
                 cfg = None
             try:
-                dec = cls.make_decoder(source, cfg, self._health(source, protocol))
+                dec = cls.make_decoder(source, cfg, self._health(source, protocol), self.rt.own_marks)
             except NotImplementedError:
                 dec = None
         self._decoders[key] = dec

@@ -22,7 +22,7 @@ from .clock import Clock
 from .config import Config, ConfigError
 from .health import ComponentHealth, HealthRegistry
 from .outputhost import OutputHost
-from .plugin import InputPlugin, PluginContext
+from .plugin import InputPlugin, PluginContext, own_marks_of
 from .records import HealthRecord
 from .registry import Registry
 from .router import Router
@@ -108,7 +108,7 @@ class Runtime:
         ctx = self._context(name, health)
         if role == "inputs" and getattr(cls, "protocol", ""):
             try:
-                ctx.decoder = cls.make_decoder(name, cfg, health)
+                ctx.decoder = cls.make_decoder(name, cfg, health, self.own_marks)
             except NotImplementedError:
                 ctx.decoder = None
         try:
@@ -128,6 +128,8 @@ class Runtime:
             if c.enabled:
                 plugin, health, _ = self._make("outputs", name, c)
                 self.outputs.append(OutputHost(name, plugin, self.router, health, self.clock))
+        #: What the outputs' own traffic carries: every decoder refuses it.
+        self.own_marks = own_marks_of((type(o.plugin.plugin), o.plugin.plugin.config) for o in self.outputs)
         hosts: dict[str, WorkerHost] = {}
         for name, c in cfg.estimators.items():
             if c.enabled:

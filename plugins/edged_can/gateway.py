@@ -35,7 +35,7 @@ from pydantic import Field, ValidationInfo, field_validator
 from edged.config import MAX_WATCHDOG, ReconnectSettings
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost, LinkStale
-from edged.plugin import Claim, InputConfig, InputPlugin, PluginContext
+from edged.plugin import NO_MARKS, Claim, InputConfig, InputPlugin, OwnMarks, PluginContext
 from edged.records import RawRecord
 
 from .config import default_config
@@ -326,7 +326,7 @@ class GatewayInput(InputPlugin):
         await link.run(open_udp, udp_session, udp_close)
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Any:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> Any:
         from .decoder import CanDecoder
 
         return CanDecoder(source, default_config(), health)  # a bus's decoder, as for a log

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost
-from edged.plugin import InputPlugin, PluginContext
+from edged.plugin import NO_MARKS, InputPlugin, OwnMarks, PluginContext
 from edged.records import RawRecord
 
 from .config import CanConfig, default_config
@@ -95,7 +95,7 @@ class CanInput(InputPlugin):
         return {"interface": self.config.interface, "channel": self.config.channel, "sessions": self.sessions}
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> CanDecoder:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> CanDecoder:
         from .decoder import CanDecoder
 
         return CanDecoder(source, config if isinstance(config, CanConfig) else default_config(), health)

@@ -14,7 +14,9 @@ Counters (in the health it was made with):
 - `unknown.<TYPE>`: sentences of other types (kept raw only); at most MAX_UNKNOWN_KEYS
   distinct types are named, the rest count as `unknown.other`;
 - `encapsulated.<TYPE>`: `!` sentences (AIS VDM/VDO), recorded raw, not decoded;
-- `malformed`: records that are not a sentence at all (no address field).
+- `malformed`: records that are not a sentence at all (no address field);
+- `rejected.own_output`: sentences with the talker ID of one of edged's own NMEA 0183
+  outputs (a loop: edged never reads its own estimates back as measurements).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 from edged.health import ComponentHealth
+from edged.plugin import NO_MARKS, OwnMarks
 from edged.records import KINDS, InvalidMeasurement, Measurement, RawRecord, validate_measurement
 
 from .handlers import HANDLERS, Env, Handler, Invalid
@@ -30,23 +33,29 @@ from .sentences import sentence_class
 from .timeofday import nearest_time
 
 MAX_UNKNOWN_KEYS = 64
+#: The mark (`OutputPlugin.own_marks`) of the talker IDs edged's NMEA 0183 outputs send.
+OWN_TALKER = "nmea0183.talker"
 _KIND_KEYS = {k: "measurements." + k for k in KINDS}
 
 
 class DecoderSettings:
     """The parts of the input's configuration the decoder uses."""
 
-    __slots__ = ("variation", "vbw_ground")
+    __slots__ = ("variation", "vbw_ground", "own_talkers")
 
-    def __init__(self, variation: float | None = None, vbw_ground: bool = False) -> None:
+    def __init__(self, variation: float | None = None, vbw_ground: bool = False,
+                 own_talkers: frozenset[str] = frozenset()) -> None:
         self.variation = variation
         self.vbw_ground = vbw_ground
+        #: The talker IDs edged's own NMEA 0183 outputs send (`own_output`).
+        self.own_talkers = own_talkers
 
     @classmethod
-    def from_config(cls, config: Any) -> "DecoderSettings":
+    def from_config(cls, config: Any, own: OwnMarks = NO_MARKS) -> "DecoderSettings":
+        talkers = frozenset(own.get(OWN_TALKER, frozenset()))
         if config is None:
-            return cls()
-        return cls(getattr(config, "variation", None), bool(getattr(config, "vbw_ground", False)))
+            return cls(own_talkers=talkers)
+        return cls(getattr(config, "variation", None), bool(getattr(config, "vbw_ground", False)), talkers)
 
 
 class _Type:
@@ -67,7 +76,7 @@ class _Type:
 
 
 class Nmea0183Decoder:
-    __slots__ = ("source", "_health", "_settings", "_env", "_types", "_unknown", "_reporter")
+    __slots__ = ("source", "_health", "_settings", "_env", "_types", "_unknown", "_reporter", "_own")
 
     def __init__(self, source: str, health: ComponentHealth, settings: DecoderSettings | None = None) -> None:
         self.source = source
@@ -77,6 +86,7 @@ class Nmea0183Decoder:
         self._types = {k: _Type(k, h) for k, h in HANDLERS.items()}
         self._unknown: dict[str, str] = {}
         self._reporter = ProblemReporter(health)
+        self._own = self._settings.own_talkers
 
     def decode(self, raw: RawRecord) -> list[Measurement]:
         try:
@@ -94,6 +104,9 @@ class Nmea0183Decoder:
         star = text.find("*")
         f = (text[1:star] if star > 0 else text[1:]).split(",")
         addr = f[0]
+        if addr[:2] in self._own:
+            self._health.count("rejected.own_output")
+            return []
         entry = self._types.get(addr[2:]) if len(addr) == 5 and text[0] == "$" and addr[0] != "P" else None
         if entry is None:
             self._count_other(text, addr)

@@ -6,7 +6,7 @@ import asyncio
 from typing import Any, ClassVar
 
 from edged.health import ComponentHealth
-from edged.plugin import InputPlugin, PluginContext
+from edged.plugin import NO_MARKS, InputPlugin, OwnMarks, PluginContext
 from edged.records import RawRecord
 
 from . import PROTOCOL
@@ -93,5 +93,5 @@ class Nmea0183Input(InputPlugin):
         return t.info()
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Nmea0183Decoder:
-        return Nmea0183Decoder(source, health, DecoderSettings.from_config(config))
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> Nmea0183Decoder:
+        return Nmea0183Decoder(source, health, DecoderSettings.from_config(config, own))

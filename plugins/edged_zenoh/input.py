@@ -18,7 +18,7 @@ import zenoh
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from edged.health import ComponentHealth
-from edged.plugin import Decoder, InputConfig, InputPlugin, PluginContext
+from edged.plugin import NO_MARKS, Decoder, InputConfig, InputPlugin, OwnMarks, PluginContext
 from edged.config import KindName
 from edged.records import RawRecord
 
@@ -81,7 +81,7 @@ class ZenohInput(InputPlugin):
         self.subscribed = asyncio.Event()
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> Decoder:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> Decoder:
         maps = getattr(config, "subscriptions", None) or []
         return ZenohDecoder(health, {m.key: m.kind for m in maps})
 

@@ -179,7 +179,7 @@ class AnotherDummyInput(DummyInput):
     """An input of the same protocol as `dummy`, sorting before it by name."""
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> OtherDecoder:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: Any = None) -> OtherDecoder:
         return OtherDecoder(source, health)
 
 

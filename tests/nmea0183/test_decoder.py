@@ -252,3 +252,26 @@ def test_decoder_failure_is_counted_not_raised(health, monkeypatch):
     monkeypatch.setattr(dec._types["HDT"], "handler", broken)
     assert dec.decode(RawRecord("nmea0183", "c", T, b"$HEHDT,274.07,T*19")) == []
     assert health.counters["decode_errors"] == 1
+
+
+def test_a_sentence_with_an_own_outputs_talker_is_refused_not_decoded(health, nmea):
+    """No loops (issue 35): the talker IDs edged's own NMEA 0183 outputs send reach the
+    decoder as marks; their sentences count `rejected.own_output` and make nothing,
+    while the same sentence from another talker is decoded."""
+    from edged.plugin import own_marks_of
+    from edged_nmea0183.decoder import OWN_TALKER
+
+    class Out:
+        @classmethod
+        def own_marks(cls, config):
+            return {OWN_TALKER: {config}}
+
+    marks = own_marks_of([(Out, "ED"), (Out, "XY")])
+    assert marks == {OWN_TALKER: frozenset({"ED", "XY"})}
+    settings = DecoderSettings.from_config(None, marks)
+    dec = Nmea0183Decoder("bridge", health, settings)
+    assert dec.decode(RawRecord("nmea0183", "bridge", T, nmea("EDHDT,123.4,T").encode())) == []
+    assert dec.decode(RawRecord("nmea0183", "bridge", T, nmea("XYHDT,123.4,T").encode())) == []
+    assert health.counters["rejected.own_output"] == 2
+    assert len(dec.decode(RawRecord("nmea0183", "bridge", T, nmea("HEHDT,123.4,T").encode()))) == 1
+    assert "sentences.HDT" in health.counters and health.counters["rejected.own_output"] == 2

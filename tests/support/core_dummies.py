@@ -62,7 +62,7 @@ class DummyInput(InputPlugin):
         await asyncio.Event().wait()
 
     @classmethod
-    def make_decoder(cls, source: str, config: Any, health: ComponentHealth) -> DummyDecoder:
+    def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: Any = None) -> DummyDecoder:
         return DummyDecoder(source, health)
 
 
