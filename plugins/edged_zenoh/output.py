@@ -33,7 +33,7 @@ from edged.records import KINDS, Estimate, HealthRecord, Measurement
 
 from .keys import KeySpace, encode, payload_of, valid_chunk
 from .latest import LatestValues
-from .ratelimit import DataTimeRateLimiter
+from edged.ratelimit import DataTimeRateLimiter
 from .session import close_session, open_plugin_session, plugin_session_config
 from .zconfig import ZenohSettings, check_key_prefix
 

@@ -11,7 +11,7 @@ from pydantic import ValidationError
 
 from edged_zenoh.commands import FLEET_DEFAULTS, ROUTER_DEFAULTS, command_config
 from edged_zenoh.output import ZenohOutputConfig
-from edged_zenoh.ratelimit import DataTimeRateLimiter
+from edged.ratelimit import DataTimeRateLimiter
 from edged_zenoh.zconfig import (
     ZenohConfigError,
     ZenohSettings,
