@@ -2,7 +2,7 @@
 
 Measurement topics are optional extras for on-board displays (DESIGN §6): a 100 Hz
 draft mark need not cross a satellite link at 100 Hz, and a bridge output sends each
-sentence or PGN at its own rate (`edged_bridge`). The limit is judged on the
+sentence or PGN at its own rate (`edged.bridgeoutput`). The limit is judged on the
 records' own time `t`, never the wall clock, so the same input gives the same
 published subset at any replay speed.
 """

@@ -1,0 +1,105 @@
+"""A bridge output: the fused values sent as messages, each at its own rate.
+
+The NMEA 0183, NMEA 2000 and Signal K outputs (issue 35) each send the same few
+values (STW, current, heading, rate of turn, the drafts) in their own format; what
+they share is in the core, once, and knows no format: `edged.bridgeview` (the
+latest value of each, None where it must not go out as a number), this module (an
+output of messages at their own rates) and `edged.bytesinks` (the UDP, TCP server
+and serial links a text protocol goes out on).
+
+An output declares its `messages` (a sentence, a PGN, a delta), each sent, at most
+`rates[name]` times per second of data time (`edged.ratelimit`), when an estimate of
+one of its roles arrives: replay sends exactly what live sent. The subclass says how
+a message is made (`encode(name)` from `self.view`, None when there is nothing to
+send) and where it goes (`deliver`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from pydantic import Field
+
+from .plugin import OutputConfig, OutputPlugin, PluginContext
+from .ratelimit import DataTimeRateLimiter
+from .records import Estimate
+
+from .bridgeview import ROLES, BridgeView, Roles
+
+__all__ = ["Message", "BridgeOutputConfig", "BridgeOutput"]
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """One message an output sends: its name, the roles whose estimates send it when
+    they arrive (it may read others' latest values too), its default rate (Hz of data
+    time; the configuration's `rates` overrides, 0 switches it off)."""
+
+    name: str
+    roles: frozenset[str]
+    hz: float
+
+
+class BridgeOutputConfig(OutputConfig):
+    #: The STW estimator instance (its table name) whose estimates are sent; "": none.
+    stw: str = "stw"
+    #: The manoeuvring-state estimator instance whose estimates are sent; "": none.
+    manoeuvre: str = "manoeuvre"
+    #: The draft estimator instance whose estimates are sent; "": none.
+    draft: str = "draft"
+    #: Seconds of data time after which an estimate that was not renewed, while
+    #: others were, goes out as "not available" (an estimator that stopped).
+    max_age: float = Field(5.0, gt=0.0, le=3600.0)
+    #: Messages per second of data time, by message name; those not named keep their
+    #: default, 0 switches one off.
+    rates: dict[str, float] = Field(default_factory=dict)
+
+
+class BridgeOutput(OutputPlugin):
+    """Sends `messages` made from the latest estimates (see the module's docstring)."""
+
+    Config: ClassVar[type[BridgeOutputConfig]] = BridgeOutputConfig
+    messages: ClassVar[tuple[Message, ...]] = ()
+
+    def __init__(self, config: BridgeOutputConfig, ctx: PluginContext) -> None:
+        super().__init__(config, ctx)
+        self.view = BridgeView(Roles(config.stw, config.manoeuvre, config.draft), config.max_age)
+        #: Only the estimates of its roles are routed to it.
+        self.keys = self.view.keys  # type: ignore[misc]
+        self._limiter = DataTimeRateLimiter()
+        self.hz = {m.name: float(config.rates.get(m.name, m.hz)) for m in self.messages}
+        self._by_role: dict[str, list[Message]] = {
+            role: [m for m in self.messages if role in m.roles and self.hz[m.name] > 0] for role in ROLES
+        }
+
+    def check(self) -> None:
+        known = {m.name for m in self.messages}
+        for name, hz in self.config.rates.items():
+            if name not in known:
+                raise ValueError(f"rates: unknown message {name!r} (known: {', '.join(sorted(known))})")
+            if not hz >= 0 or hz > 1000:
+                raise ValueError(f"rates.{name}: {hz} is not a rate between 0 and 1000 Hz")
+
+    def encode(self, name: str) -> Any | None:
+        """The message `name` made from `self.view`; None: nothing to send now."""
+        raise NotImplementedError
+
+    def deliver(self, name: str, payload: Any) -> None:
+        """Send a message; never blocks, never raises (count what cannot go)."""
+        raise NotImplementedError
+
+    def write(self, batch: list[Any]) -> None:
+        view, allow, hz, count = self.view, self._limiter.allow, self.hz, self.ctx.health.count
+        for rec in batch:
+            if not isinstance(rec, Estimate):
+                continue
+            role = view.update(rec)
+            if role is None:
+                continue
+            for m in self._by_role[role]:
+                if allow(m.name, rec.t, hz[m.name]):
+                    payload = self.encode(m.name)
+                    if payload is not None:
+                        self.deliver(m.name, payload)
+                        count("sent")
