@@ -10,6 +10,12 @@ Before any of that, the length: a classic CAN frame carries at most 8 data bytes
 a CAN FD frame at most 64. A record is FD when its `meta` says so (`"fd": true`) or the
 DBC defines its frame as FD; anything else is classic, and NMEA 2000 always is. A frame
 longer than its kind allows is counted `rejected.bad_length` and not decoded.
+
+No loops: the decoder is told the NAMEs of edged's own NMEA 2000 outputs (`own`, the
+mark `n2k.name`). It learns from the address claims (PGN 60928) it sees which NAME
+holds which address, and a frame (or a gateway's whole message) from an address whose
+last claim carried one of our NAMEs, the claim included, is counted
+`rejected.own_output` and gives no measurement.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 from edged.health import ComponentHealth
+from edged.plugin import NO_MARKS, OwnMarks
 from edged.records import Measurement, RawRecord
 
 from .config import CanConfig
@@ -24,15 +31,17 @@ from .dbc import DbcDecoder
 from .emit import Emitter
 from . import formats
 from .n2k import N2kDecoder
+from .output.marks import OWN_NAME, parse_names
 
 CLASSIC_MAX = 8
 FD_MAX = 64
 
 
 class CanDecoder:
-    def __init__(self, bus: str, config: CanConfig, health: ComponentHealth) -> None:
+    def __init__(self, bus: str, config: CanConfig, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> None:
         self.bus = bus
         self._health = health
+        self._own = _OwnGuard(parse_names(own.get(OWN_NAME, frozenset())))
         emit = Emitter(health)
         self._dbc = DbcDecoder(bus, config, health, emit)
         self._n2k = N2kDecoder(bus, config, health, emit)
@@ -65,6 +74,9 @@ class CanDecoder:
             count("frames.dbc")
             return self._dbc.decode(raw, can_id, ext)
         if ext:
+            if self._own.names and self._own.frame(can_id, raw.data):
+                count("rejected.own_output")
+                return []
             count("frames.n2k")
             return self._n2k.decode(raw, can_id)
         count(f"unknown_id.0x{can_id:03x}")
@@ -97,10 +109,41 @@ class CanDecoder:
                     health.count("frames.tx")
                 out.extend(self.decode(RawRecord(raw.protocol, raw.source, raw.t, item.data,
                                                  {"id": item.can_id, "ext": True})))
+            elif self._own.names and self._own.message(item.pgn, item.src, item.payload):
+                health.count("rejected.own_output")
             else:
                 health.count("messages")
                 out.extend(self._n2k.decode_message(raw, item.prio, item.pgn, item.src, item.dst, item.payload))
         return out
+
+
+_PGN_CLAIM = 60928
+
+
+class _OwnGuard:
+    """Which addresses are edged's own: those whose last address claim carried one of
+    our NAMEs (a claim by another NAME gives the address back)."""
+
+    __slots__ = ("names", "_addresses")
+
+    def __init__(self, names: frozenset[int]) -> None:
+        self.names = names
+        self._addresses: set[int] = set()
+
+    def message(self, pgn: int, src: int, payload: bytes) -> bool:
+        """Whether a message of `pgn` from `src` is our own (learning from claims)."""
+        if pgn == _PGN_CLAIM and len(payload) >= 8:
+            if int.from_bytes(payload[:8], "little") in self.names:
+                self._addresses.add(src)
+                return True
+            self._addresses.discard(src)
+            return False
+        return src in self._addresses
+
+    def frame(self, can_id: int, data: bytes) -> bool:
+        """The same for one frame of a bus (60928 is PDU1: PF 0xEE, any destination)."""
+        pgn = _PGN_CLAIM if (can_id >> 16) & 0x3FF == _PGN_CLAIM >> 8 else -1
+        return self.message(pgn, can_id & 0xFF, data)
 
 
 def _says_fd(meta: Any) -> bool:

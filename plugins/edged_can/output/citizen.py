@@ -11,7 +11,8 @@
   Product Information (model "edged", our version), 126993 (a heartbeat), 126464 (the
   PGNs we send and receive); any other PGN asked of us alone is refused with a NAK
   (59392). Each answer counts `requests_answered`.
-- A heartbeat (PGN 126993) every `heartbeat` seconds of clock time.
+- A heartbeat (PGN 126993) every `heartbeat` seconds of clock time, and at once
+  from each address newly ours.
 
 Time is the clock's (`Clock.monotonic`, in ms for the claim state machine): a test
 moves it by hand, a replay by the data.
@@ -75,6 +76,7 @@ class Citizen:
         self._transmits = tuple(sorted({*transmits, PGN_CLAIM, PGN_PRODUCT, PGN_HEARTBEAT, PGN_LIST, PGN_ACK}))
         self._beats = 0
         self._next_beat: float | None = None
+        self._beat_from: int | None = None
         self._version = software_version()
         self._info()
 
@@ -109,8 +111,9 @@ class Citizen:
         every = self.config.heartbeat
         if addr is None or every <= 0:
             return
-        if self._next_beat is None or now >= self._next_beat:
-            self._next_beat = now + every
+        if self._next_beat is None or now >= self._next_beat or addr != self._beat_from:
+            # at once from a new address: listeners learn where we went
+            self._next_beat, self._beat_from = now + every, addr
             self._send(wire.heartbeat(addr, self._beats, every))
             self._beats += 1
             self._health.count("heartbeats")
