@@ -19,7 +19,7 @@ from typing import Any
 
 from edged.health import ComponentHealth
 
-from .channels import dumps, encode, to_ns
+from .channels import MAX_T, dumps, encode, to_ns
 from .mcapfile import McapFile
 
 __all__ = ["DERIVED", "MAX_T", "Recorded", "WriteFailed", "record_batch"]
@@ -27,9 +27,6 @@ __all__ = ["DERIVED", "MAX_T", "Recorded", "WriteFailed", "record_batch"]
 #: Topics of messages derived from a record recorded on its own channel as well (a
 #: position's LocationFix): every other message is a record of its own.
 DERIVED = "/location/"
-
-#: Log times are uint64 nanoseconds: data time must lie in [1970, 2554).
-MAX_T = (2**64 - 1) / 1e9
 
 
 class WriteFailed(Exception):

@@ -24,6 +24,7 @@ __all__ = [
     "Out",
     "encode",
     "to_ns",
+    "MAX_T",
     "dumps",
     "raw_from_message",
     "RAW_PREFIX",
@@ -41,6 +42,11 @@ Out = tuple[str, str, dict[str, Any]]
 
 class NotRaw(ValueError):
     """A message that cannot be turned back into a RawRecord (named reason)."""
+
+
+#: Log times are uint64 nanoseconds: data time must lie in [1970, 2554) (the recorder
+#: and the live Foxglove output reject a record outside it, counted `bad_time`).
+MAX_T = (2**64 - 1) / 1e9
 
 
 def to_ns(t: float) -> int:

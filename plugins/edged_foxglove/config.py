@@ -1,0 +1,89 @@
+"""Configuration of the live Foxglove output (`[outputs.<name>] type = "foxglove"`).
+
+The server is a window into the vessel for a browser on board: it listens on this
+machine only unless told otherwise (`host`), and measurements, which can come at
+100 Hz (the draft marks), are thinned per channel on data time so that a slow link
+to the browser is not flooded; estimates and health go out as they come.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import re
+
+from pydantic import Field, field_validator
+
+from edged.plugin import Claim, OutputConfig
+from edged.records import KINDS
+
+__all__ = ["FoxgloveOutputConfig", "ANY_HOSTS"]
+
+#: Addresses that mean "every interface": a claim on them collides with any other.
+ANY_HOSTS = frozenset({"0.0.0.0", "::", "*"})
+#: A DNS name: labels of letters, digits and hyphens, dot separated.
+_LABEL = r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+_HOSTNAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(\.{_LABEL})*$")
+
+
+class FoxgloveOutputConfig(OutputConfig):
+    """Where the WebSocket server listens and which records it serves."""
+
+    type: str = "foxglove"
+    #: The address to listen on: this machine only by default; "0.0.0.0" for every
+    #: interface (anyone on the ship's network may then watch).
+    host: str = "127.0.0.1"
+    #: The TCP port (8765 is Foxglove's default); 0 lets the kernel choose one,
+    #: shown in health as `info.url` (tests).
+    port: int = Field(8765, ge=0, le=65535)
+    #: Serve the estimates (`/est/<name>`), at every estimate.
+    estimates: bool = True
+    #: Serve the measurements (`/meas/<kind>/<source>`), rate-limited below.
+    measurements: bool = True
+    #: Serve positions as `foxglove.LocationFix` (`/location/<source>`) for the map,
+    #: at the position measurements' rate.
+    locations: bool = True
+    #: Serve the health snapshots (`/health`).
+    health: bool = True
+    #: Highest rate per measurement channel (Hz of data time); 0 switches a kind off.
+    meas_default_hz: float = Field(10.0, ge=0, le=1000)
+    #: Per measurement kind, overriding `meas_default_hz`.
+    meas_max_hz: dict[str, float] = Field(default_factory=dict)
+    #: Messages queued per browser before the oldest is dropped (the SDK's backlog):
+    #: a browser that falls behind loses old data, never holds the daemon.
+    backlog: int = Field(1024, ge=1, le=1_000_000)
+
+    @field_validator("host")
+    @classmethod
+    def _host(cls, v: str) -> str:
+        v = v.strip()
+        if v.startswith("[") and v.endswith("]"):
+            v = v[1:-1]
+        try:
+            return str(ipaddress.ip_address(v))
+        except ValueError:
+            pass
+        if not _HOSTNAME.match(v):
+            raise ValueError(f"{v!r} is not an IP address or a host name")
+        return v
+
+    @field_validator("meas_max_hz")
+    @classmethod
+    def _kinds(cls, v: dict[str, float]) -> dict[str, float]:
+        for kind, hz in v.items():
+            if kind not in KINDS:
+                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
+            if not 0 <= hz <= 1000:
+                raise ValueError(f"{kind}: {hz} is not a rate between 0 and 1000 Hz")
+        return v
+
+    def claims(self) -> list[Claim]:
+        """The TCP port it listens on (a port 0 asks for any free one: no claim)."""
+        out = super().claims()
+        if self.port:
+            host = "*" if self.host in ANY_HOSTS else self.host.lower()
+            out.append(Claim("port", ("tcp", host, str(self.port)), f"listen on tcp {self.host}:{self.port}"))
+        return out
+
+    def hz(self, kind: str) -> float:
+        """The rate limit of a measurement kind's channels (Hz of data time)."""
+        return float(self.meas_max_hz.get(kind, self.meas_default_hz))
