@@ -15,10 +15,12 @@ gateway does not take the bytes as fast as they come, `errors.send`).
   the configured one. What the gateway sends us (the bus's traffic) is read and
   dropped.
 - `ActisenseLink`: an Actisense NGT-1 (BST over its USB serial port, or a TCP relay
-  of it): whole messages (BST 94, the gateway cuts fast-packets itself), after the
-  start-up bytes of the `nmea2000` package's NGT-1 codec. The gateway, too, sends with
-  its own address. The NGT-1's transmit list must let our PGNs through (it is set
-  with Actisense's tools; the codec's start-up does not change it).
+  of it): whole messages as BST 94 "N2K message to send" (framed by the `nmea2000`
+  package's NGT-1 codec; the gateway cuts fast-packets itself). No start-up
+  conversation: that turns on the gateway's reception, which an output does not
+  need (and the codec holds every message back until the gateway answers it). The
+  gateway, too, sends with its own address. Its transmit PGN list must let our PGNs
+  through (it is set with Actisense's own tools).
 """
 
 from __future__ import annotations
@@ -53,8 +55,10 @@ class N2kLink:
         self._seq: dict[int, int] = {}
         #: Frames of other devices (only a bus gives them).
         self.on_frame: OnFrame | None = None
-        #: Set while the link is up (tests and the output wait for it).
+        #: Set while the link is up, and `down` once it went down (the output and the
+        #: tests wait for them).
         self.connected = asyncio.Event()
+        self.down = asyncio.Event()
 
     async def open(self) -> None:
         if self._task is None:
@@ -85,11 +89,13 @@ class N2kLink:
         return [(ident, f) for f in wire.fragment(seq, frame.payload)]
 
     async def _session(self, up: Callable[[], Awaitable[None]]) -> None:
+        self.down.clear()
         self.connected.set()
         try:
             await up()
         finally:
             self.connected.clear()
+            self.down.set()
 
 
 class CanLink(N2kLink):
@@ -165,30 +171,15 @@ class _StreamLink(N2kLink):
             return await open_serial(cfg.device, cfg.baudrate)
         return await asyncio.open_connection(cfg.host, cfg.gateway_port())
 
-    def _hello(self) -> bytes:
-        """Bytes written at each connect."""
-        return b""
-
-    def _heard(self, data: bytes) -> bytes:
-        """What the gateway sent us; the bytes to answer."""
-        return b""
-
     async def _keep(self) -> None:
         async def session(conn: tuple[asyncio.StreamReader, asyncio.StreamWriter]) -> None:
             reader, writer = conn
             self._writer = writer
             try:
-                writer.write(self._hello())
-
-                async def read() -> None:
-                    while True:
-                        data = await reader.read(65536)
-                        if not data:
-                            raise LinkLost("closed by the gateway")
+                async def read() -> None:  # the bus's traffic the gateway sends: dropped
+                    while await reader.read(65536):
                         self.link.stable()
-                        answer = self._heard(data)
-                        if answer:
-                            writer.write(answer)
+                    raise LinkLost("closed by the gateway")
 
                 await self._session(read)
             finally:
@@ -237,33 +228,18 @@ class YdwgLink(_StreamLink):
 class ActisenseLink(_StreamLink):
     """Actisense NGT-1 BST (see the module's docstring)."""
 
-    def __init__(self, config: Nmea2000OutputConfig, health: ComponentHealth, tx_pgns: tuple[int, ...],
-                 clock: Callable[[], float], sleep: Any = asyncio.sleep) -> None:
+    def __init__(self, config: Nmea2000OutputConfig, health: ComponentHealth, sleep: Any = asyncio.sleep) -> None:
         super().__init__(config, health, sleep)
-        self._tx = tx_pgns
-        self._clock = clock
-        self._codec = wire.ngt1(tx_pgns)
-
-    def _ms(self) -> int:
-        return int(self._clock() * 1000)
-
-    def _hello(self) -> bytes:
-        self._codec = wire.ngt1(self._tx)  # each connection starts the conversation over
-        return self._codec.open()
-
-    def _heard(self, data: bytes) -> bytes:
-        events = self._codec.receive(data, self._ms()) + self._codec.tick(self._ms())
-        return b"".join(p for kind, p in events if kind == "send")
+        self._codec = wire.ngt1()
 
     def _bytes(self, frame: Frame) -> bytes:
         return self._codec.send(frame.pgn, frame.payload, frame.src, frame.dst, frame.prio)
 
 
-def make_link(config: Nmea2000OutputConfig, health: ComponentHealth, tx_pgns: tuple[int, ...],
-              clock: Callable[[], float]) -> N2kLink:
+def make_link(config: Nmea2000OutputConfig, health: ComponentHealth) -> N2kLink:
     """The link of the configured transport."""
     if config.transport == "can":
         return CanLink(config, health)
     if config.transport == "ydwg":
         return YdwgLink(config, health)
-    return ActisenseLink(config, health, tx_pgns, clock)
+    return ActisenseLink(config, health)

@@ -53,7 +53,7 @@ class Nmea2000Output(BridgeOutput):
         self._sid = Sid()
         self._options = {"stw_sensor_type": WATER_REFERENCE.get(config.stw_sensor_type or "")}
         tx = tuple(int(n) for n in PGNS)
-        self.link: N2kLink = make_link(config, ctx.health, tx, ctx.clock.monotonic)
+        self.link: N2kLink = make_link(config, ctx.health)
         self.citizen: Citizen | None = None
         if config.transport == "can":
             self.citizen = Citizen(config, ctx.health, self._send_as_is, tx)
@@ -124,7 +124,8 @@ class Nmea2000Output(BridgeOutput):
         if self.citizen is not None:
             addr = self.citizen.address
             if addr is None:
-                self.ctx.health.count("unsent.no_address")
+                up = self.link.connected.is_set()
+                self.ctx.health.count("unsent.no_address" if up else "unsent.link_down")
                 return
             payload = payload._replace(src=addr)
         self.link.send(payload)

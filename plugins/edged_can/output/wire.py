@@ -105,11 +105,10 @@ def pgn_list(src: int, dst: int, transmit: tuple[int, ...], receive: tuple[int, 
     return [Frame(*f) for f in canboat.pgn_list_frames(src, dst, list(transmit), list(receive))]
 
 
-def ngt1(tx_pgns: tuple[int, ...]) -> Any:
-    """The Actisense NGT-1 byte protocol (canboat's `GatewayCodec("ngt1")`): `open()`
-    the start-up bytes, `send(pgn, data, src, dst, prio)` one message to transmit,
-    `receive`/`tick` what to answer the gateway."""
-    return canboat.GatewayCodec("ngt1", tx_pgns=list(tx_pgns))
+def ngt1() -> Any:
+    """The Actisense NGT-1 byte protocol (canboat's `GatewayCodec("ngt1")`), of which
+    the output uses `send(pgn, data, src, dst, prio)`: one framed BST 94 message."""
+    return canboat.GatewayCodec("ngt1")
 
 
 def nak(src: int, dst: int, pgn: int) -> Frame:
