@@ -22,6 +22,7 @@ from edged_signalk.output import SignalKOutput
     ({"max_age": 0}, "greater than 0"),
     ({"rates": {"speed": float("inf")}}, "finite number"),
     ({"talker": "ED"}, "Extra inputs are not permitted"),
+    ({"worker": "process"}, "daemon's loop only"),
 ])
 def test_bad_configuration_is_refused_with_a_clear_message(cfg: dict, words: str) -> None:
     with pytest.raises(ValidationError, match=words):
@@ -52,3 +53,16 @@ def test_the_entry_point_names_the_output() -> None:
 
     (ep,) = [e for e in entry_points(group="edged.outputs") if e.name == "signalk"]
     assert ep.load() is SignalKOutput
+
+
+def test_the_daemons_configuration_names_the_key_of_a_bad_value() -> None:
+    from edged.config import ConfigError, parse_config
+    from edged.registry import Registry
+
+    good = {"outputs": {"bridge": {"type": "signalk", "transport": "tcp", "port": 10111, "rates": {"heading": 10}}}}
+    cfg = parse_config(good, Registry())
+    assert cfg.outputs["bridge"].rates == {"heading": 10}
+    with pytest.raises(ConfigError) as ei:
+        parse_config({"outputs": {"bridge": {"type": "signalk", "context": "vessels.aurora"}}}, Registry(), file="x.toml")
+    ((key, why),) = ei.value.errors
+    assert key == "outputs.bridge.context" and "not a vessel's" in why

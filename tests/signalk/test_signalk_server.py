@@ -7,15 +7,16 @@ signalk-server` installs it with npm; `make test` does so first)."""
 
 from __future__ import annotations
 
-import asyncio
 from pathlib import Path
 
 import pytest
 
-from bridge_rig import T0, Ctx, manoeuvre, stw
-from edged_signalk.config import SignalKOutputConfig
+from bridge_rig import T0, manoeuvre, stw
+from edged.clock import ManualClock
+from edged.config import parse_config
+from edged.registry import Registry
+from edged.runtime import Runtime
 from edged_signalk.delta import iso_ms
-from edged_signalk.output import SignalKOutput
 from signalk_server import SignalKServer, skip_reason
 from waiting import wait_for
 
@@ -28,17 +29,19 @@ pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=WHY_NOT or "")
 
 
 async def test_signalk_server_shows_edgeds_stw_and_current_with_edged_as_the_source(tmp_path: Path) -> None:
-    c = Ctx("sk_bridge", "signalk")
-    out = SignalKOutput(SignalKOutputConfig(type="signalk", transport="tcp", host="127.0.0.1", port=0), c.ctx)
-    out.check()
-    await out.open()
+    """The output run by the daemon's runtime, the estimates published on its router."""
+    cfg = parse_config({"outputs": {"sk_bridge": {"type": "signalk", "transport": "tcp", "port": 0}}}, Registry())
+    rt = Runtime(cfg, Registry(), ManualClock(T0))
+    await rt.start()
     try:
-        sink = out.sink
-        await asyncio.wait_for(sink.listening.wait(), 5.0)  # type: ignore[union-attr]
-        async with SignalKServer(tmp_path / "signalk", "127.0.0.1", sink.bound_port) as server:  # type: ignore[union-attr]
-            await wait_for(lambda: out.status().get("clients") == 1, START)  # its data connection is up
+        (host,) = rt.outputs
+        info, counters = host.health.info, host.health.counters
+        await wait_for(lambda: "port" in info, 5.0)  # the kernel's choice, in health
+        async with SignalKServer(tmp_path / "signalk", "127.0.0.1", info["port"]) as server:
+            await wait_for(lambda: host.plugin.status().get("clients") == 1, START)  # its data connection is up
             e = stw(T0)
-            out.write([e, manoeuvre(T0)])
+            for rec in (e, manoeuvre(T0)):
+                rt.router.publish(rec)
 
             speed = await server.poll(f"{API}/navigation/speedThroughWater",
                                       lambda b: b.get("value") == e.values["stw"], START)
@@ -52,11 +55,11 @@ async def test_signalk_server_shows_edgeds_stw_and_current_with_edged_as_the_sou
             heading = await server.poll(f"{API}/navigation/headingTrue", lambda b: "value" in b, START)
             assert heading["value"] == manoeuvre().values["heading"]
 
-            out.write([stw(T0 + 1.0, stale=True)])  # the STW's inputs stopped: no number, a null
+            rt.router.publish(stw(T0 + 1.0, stale=True))  # the STW's inputs stopped: no number, a null
             gone = await server.poll(f"{API}/navigation/speedThroughWater",
                                      lambda b: b.get("timestamp") == iso_ms(T0 + 1.0), START)
             assert gone["value"] is None and gone["$source"] == "edged.sk_bridge"
-        assert c.health.counters["sent"] == 6
-        assert not any(k.startswith(("unsent", "dropped", "errors")) for k in c.health.counters), c.health.counters
+        assert counters["sent"] == 6
+        assert not any(k.startswith(("unsent", "dropped", "errors")) for k in counters), counters
     finally:
-        await out.close()
+        await rt.stop()
