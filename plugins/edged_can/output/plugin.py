@@ -42,7 +42,9 @@ TICK = 0.05
 
 
 class Nmea2000Output(BridgeOutput):
-    """Sends the fused values as NMEA 2000 PGNs (see the module's docstring)."""
+    """NMEA 2000 PGNs of the fused values (128259, 130577, 127250, 127251, 128000,
+    129026) on a CAN bus, where edged claims an address, answers requests and beats,
+    or through a YDWG-02 (RAW over TCP) or Actisense NGT-1 (BST) gateway."""
 
     Config: ClassVar[type[Nmea2000OutputConfig]] = Nmea2000OutputConfig
     description: ClassVar[str] = "NMEA 2000 PGNs of the fused values on a CAN bus or through a gateway"
