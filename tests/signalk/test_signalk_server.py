@@ -1,6 +1,8 @@
 """A real signalk-server reads the Signal K output (issue 35): its "Signal K" data
 connection over TCP to the output's server, and its REST API then shows edged's STW
-and current, with edged as their source; a stale estimate then shows as null.
+and current, with edged as their source; a stale estimate then shows as null. It
+drops `design.draft` (its own vessel's is configured), so the mean draft is shown
+under `edged.draft.mean`.
 
 Skipped where node is absent or signalk-server is not installed (`make
 signalk-server` installs it with npm; `make test` does so first)."""
@@ -11,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from bridge_rig import T0, manoeuvre, stw
+from bridge_rig import T0, draft, manoeuvre, stw
 from edged.clock import ManualClock
 from edged.config import parse_config
 from edged.registry import Registry
@@ -55,11 +57,17 @@ async def test_signalk_server_shows_edgeds_stw_and_current_with_edged_as_the_sou
             heading = await server.poll(f"{API}/navigation/headingTrue", lambda b: "value" in b, START)
             assert heading["value"] == manoeuvre().values["heading"]
 
+            d = draft(T0)  # the mean draft: shown under edged.*, as the server drops design.draft
+            rt.router.publish(d)
+            mean = await server.poll(f"{API}/edged/draft/mean", lambda b: "value" in b, START)
+            assert mean["value"] == d.values["mean_draft"] and mean["$source"] == "edged.sk_bridge"
+            assert (await server.get(f"{API}/design/draft"))[0] == 404
+
             rt.router.publish(stw(T0 + 1.0, stale=True))  # the STW's inputs stopped: no number, a null
             gone = await server.poll(f"{API}/navigation/speedThroughWater",
                                      lambda b: b.get("timestamp") == iso_ms(T0 + 1.0), START)
             assert gone["value"] is None and gone["$source"] == "edged.sk_bridge"
-        assert counters["sent"] == 6
+        assert counters["sent"] == 7
         assert not any(k.startswith(("unsent", "dropped", "errors")) for k in counters), counters
     finally:
         await rt.stop()
