@@ -30,6 +30,7 @@ def config(**cfg: Any) -> Nmea2000OutputConfig:
     ("heartbeat", 65.6), ("heartbeat", -1.0), ("product_code", 70000),
     ("model_version", "x" * 33), ("serial", "y" * 33), ("stw_sensor_type", "ultrasound"),
     ("transport", "udp"), ("interface", "kvaser"), ("max_age", 0.0), ("colour", "red"),
+    ("worker", "process"),  # its link and claim are background tasks of the daemon's loop
 ])
 def test_a_bad_value_is_refused_naming_its_key(key: str, value: Any) -> None:
     with pytest.raises(ValidationError) as err:
