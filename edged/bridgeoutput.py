@@ -11,7 +11,7 @@ An output declares its `messages` (a sentence, a PGN, a delta), each sent, at mo
 `rates[name]` times per second of data time (`edged.ratelimit`), when an estimate of
 one of its roles arrives: replay sends exactly what live sent. The subclass says how
 a message is made (`encode(name)` from `self.view`, None when there is nothing to
-send) and where it goes (`deliver`).
+send) and where it goes (`deliver`, False when it could not go: `sent` counts what went).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from .plugin import OutputConfig, OutputPlugin, PluginContext
 from .ratelimit import DataTimeRateLimiter
@@ -55,6 +55,17 @@ class BridgeOutputConfig(OutputConfig):
     #: default, 0 switches one off.
     rates: dict[str, float] = Field(default_factory=dict)
 
+    @field_validator("worker")
+    @classmethod
+    def _in_the_loop(cls, v: str) -> str:
+        # An output's process runs its event loop only during a call (open, write,
+        # close): a link kept open in the background (a TCP server, a bus, an
+        # address claim's deadlines, a heartbeat) would never come up there.
+        if v != "loop":
+            raise ValueError('a bridge output runs in the daemon\'s loop only (worker = "loop"): '
+                             "its links are kept open by tasks that a process of its own would not run")
+        return v
+
 
 class BridgeOutput(OutputPlugin):
     """Sends `messages` made from the latest estimates (see the module's docstring)."""
@@ -85,8 +96,9 @@ class BridgeOutput(OutputPlugin):
         """The message `name` made from `self.view`; None: nothing to send now."""
         raise NotImplementedError
 
-    def deliver(self, name: str, payload: Any) -> None:
-        """Send a message; never blocks, never raises (count what cannot go)."""
+    def deliver(self, name: str, payload: Any) -> bool:
+        """Send a message; never blocks, never raises. False: it could not go (the
+        reason counted by the link), and it is not counted `sent`."""
         raise NotImplementedError
 
     def write(self, batch: list[Any]) -> None:
@@ -100,6 +112,5 @@ class BridgeOutput(OutputPlugin):
             for m in self._by_role[role]:
                 if allow(m.name, rec.t, hz[m.name]):
                     payload = self.encode(m.name)
-                    if payload is not None:
-                        self.deliver(m.name, payload)
+                    if payload is not None and self.deliver(m.name, payload):
                         count("sent")

@@ -13,7 +13,8 @@ output never stops for a dead peer:
   `dropped.slow_client`); it never slows the others or the daemon;
 - `serial`: a serial port (an RS-422 line to the instruments) at `baudrate`.
 
-`send` never blocks and never raises: what cannot go is counted (`unsent.link_down`
+`send` never blocks and never raises: what cannot go is counted (and `send` says
+False) (`unsent.link_down`
 while the link is being reopened, `dropped.slow_client`, `errors.send`).
 Servers bind 127.0.0.1 unless configured: a bridge that serves the ship's LAN says
 `host = "0.0.0.0"` (or the LAN's address) on purpose.
@@ -26,11 +27,12 @@ import contextlib
 import socket
 from typing import Any, Literal
 
-from pydantic import BaseModel, Field, model_validator
+from pydantic import Field, model_validator
 
 from .config import ReconnectSettings
 from .health import ComponentHealth
 from .link import Link, LinkLost
+from .plugin import Claim, listen_claim, serial_claim
 from .serialport import open_serial
 
 __all__ = ["TransportSettings", "ByteSink", "UdpSink", "TcpServerSink", "SerialSink", "make_sink"]
@@ -58,6 +60,19 @@ class TransportSettings(ReconnectSettings):
     #: tcp: bytes that may wait for one client before its messages are dropped.
     client_buffer: int = Field(65536, ge=1024, le=64 * 1024 * 1024)
 
+    def claims(self) -> list[Claim]:
+        """The TCP port it serves (port 0: any free one, no claim) and the serial port
+        it writes: one user each, input or output."""
+        out: list[Claim] = []
+        nxt = getattr(super(), "claims", None)
+        if nxt is not None:
+            out += nxt()
+        if self.transport == "tcp" and self.port:
+            out.append(listen_claim("port", "tcp", self.host, self.port))
+        elif self.transport == "serial" and self.device:
+            out += serial_claim(self.device, text=f"write serial {self.device}")
+        return out
+
     @model_validator(mode="after")
     def _serial_needs_device(self) -> "TransportSettings":
         if self.transport == "serial" and not self.device:
@@ -84,8 +99,9 @@ class ByteSink:
     async def _keep(self) -> None:
         raise NotImplementedError
 
-    def send(self, data: bytes) -> None:
-        """Send one message now, or count why it cannot go."""
+    def send(self, data: bytes) -> bool:
+        """Send one message now, or count why it cannot go (False). A TCP server with
+        no client has sent it: nobody listening is not a loss."""
         raise NotImplementedError
 
     @property
@@ -143,16 +159,18 @@ class UdpSink(ByteSink):
 
         await self.link.run(opener, session, close)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes) -> bool:
         t = self._transport
         if t is None or t.is_closing():
             self.health.count("unsent.link_down")
-            return
+            return False
         try:
             t.sendto(data)
         except OSError as exc:
             self.health.count("errors.send")
             self.health.error(f"udp send: {exc}")
+            return False
+        return True
 
 
 class TcpServerSink(ByteSink):
@@ -203,7 +221,10 @@ class TcpServerSink(ByteSink):
 
         await self.link.run(opener, session, close)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes) -> bool:
+        if not self.listening.is_set():
+            self.health.count("unsent.link_down")
+            return False
         limit = self.settings.client_buffer
         for w in list(self._clients):
             t = w.transport
@@ -219,6 +240,7 @@ class TcpServerSink(ByteSink):
                 self.health.count("errors.send")
                 self._clients.discard(w)
                 w.close()
+        return True
 
     def status(self) -> dict[str, Any]:
         return {"clients": len(self._clients)}
@@ -251,19 +273,21 @@ class SerialSink(ByteSink):
 
         await self.link.run(opener, session, close)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes) -> bool:
         w = self._writer
         if w is None or w.transport.is_closing():
             self.health.count("unsent.link_down")
-            return
+            return False
         if w.transport.get_write_buffer_size() + len(data) > self.settings.client_buffer:
             self.health.count("dropped.slow_client")  # the line is slower than the sentences
-            return
+            return False
         try:
             w.write(data)
         except OSError as exc:
             self.health.count("errors.send")
             self.health.error(f"serial write: {exc}")
+            return False
+        return True
 
 
 def make_sink(settings: TransportSettings, health: ComponentHealth) -> ByteSink:

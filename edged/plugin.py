@@ -25,7 +25,9 @@ recording readers in `edged.recordings` (`edged.recordings`); subcommands in
 
 from __future__ import annotations
 
+import ipaddress
 import logging
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -41,6 +43,10 @@ from .records import Measurement, RawRecord
 
 __all__ = [
     "Claim",
+    "ANY_ADDRESS",
+    "address_key",
+    "listen_claim",
+    "serial_claim",
     "PluginConfig",
     "InputConfig",
     "EstimatorConfig",
@@ -70,6 +76,37 @@ class Claim(NamedTuple):
     resource: tuple[str, ...]
     #: The message's words for it: "listen on udp 127.0.0.1:10110".
     text: str
+
+
+#: Addresses that mean every address of a port (a wildcard listen).
+ANY_ADDRESS = frozenset({"", "0.0.0.0", "::", "[::]", "*"})
+
+
+def address_key(host: str) -> str:
+    """A listen address as claims compare it: `*` for a wildcard, an IP address in its
+    compressed form, a name in lower case."""
+    if host in ANY_ADDRESS:
+        return "*"
+    h = host.strip("[]")
+    try:
+        return ipaddress.ip_address(h).compressed
+    except ValueError:
+        return h.lower()
+
+
+def listen_claim(key: str, proto: str, host: str, port: int | str, text: str | None = None) -> Claim:
+    """The claim of a port listened on (`proto` "udp" or "tcp"), the same for every
+    plugin, so that an input, an output and a zenoh endpoint on one port collide."""
+    shown = f"[{host}]" if ":" in host and not host.startswith("[") else host
+    return Claim(key, (proto, address_key(host), str(port)), text or f"listen on {proto} {shown}:{port}")
+
+
+def serial_claim(device: str, key: str = "device", text: str | None = None) -> list[Claim]:
+    """The claim of a serial device (its real path: two names of one tty collide);
+    none for a pyserial URL (socket://, rfc2217://), which holds no device of its own."""
+    if "://" in device:
+        return []
+    return [Claim(key, ("serial", os.path.realpath(device)), text or f"use serial {device}")]
 
 
 class PluginConfig(BaseModel):

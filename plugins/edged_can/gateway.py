@@ -27,7 +27,6 @@ gateway's replies and its timers is written back; the frames it decodes are not 
 from __future__ import annotations
 
 import asyncio
-import os
 from typing import Any, ClassVar, Literal, Protocol
 
 from pydantic import Field, ValidationInfo, field_validator
@@ -35,7 +34,7 @@ from pydantic import Field, ValidationInfo, field_validator
 from edged.config import MAX_WATCHDOG, ReconnectSettings
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost, LinkStale
-from edged.plugin import NO_MARKS, Claim, InputConfig, InputPlugin, OwnMarks, PluginContext
+from edged.plugin import NO_MARKS, Claim, InputConfig, InputPlugin, OwnMarks, PluginContext, listen_claim, serial_claim
 from edged.records import RawRecord
 
 from .config import default_config
@@ -108,10 +107,9 @@ class GatewayConfig(InputConfig, ReconnectSettings):
 
     def claims(self) -> list[Claim]:
         if self.transport == "udp":
-            host = "*" if self.bind in ("0.0.0.0", "::", "") else self.bind
-            return [Claim("port", ("udp", host, str(self.port)), f"listen on udp {self.bind}:{self.port}")]
-        if self.transport == "serial" and self.device and "://" not in self.device:
-            return [Claim("device", ("serial", os.path.realpath(self.device)), f"read serial {self.device}")]
+            return [listen_claim("port", "udp", self.bind, self.port)]
+        if self.transport == "serial" and self.device:
+            return serial_claim(self.device, text=f"read serial {self.device}")
         return []
 
     def where(self) -> str:
@@ -329,4 +327,4 @@ class GatewayInput(InputPlugin):
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> Any:
         from .decoder import CanDecoder
 
-        return CanDecoder(source, default_config(), health)  # a bus's decoder, as for a log
+        return CanDecoder(source, default_config(), health, own)  # a bus's decoder, as for a log

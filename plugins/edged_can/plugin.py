@@ -98,4 +98,4 @@ class CanInput(InputPlugin):
     def make_decoder(cls, source: str, config: Any, health: ComponentHealth, own: OwnMarks = NO_MARKS) -> CanDecoder:
         from .decoder import CanDecoder
 
-        return CanDecoder(source, config if isinstance(config, CanConfig) else default_config(), health)
+        return CanDecoder(source, config if isinstance(config, CanConfig) else default_config(), health, own)

@@ -13,13 +13,11 @@ import re
 
 from pydantic import Field, field_validator
 
-from edged.plugin import Claim, OutputConfig
+from edged.plugin import Claim, OutputConfig, listen_claim
 from edged.records import KINDS
 
-__all__ = ["FoxgloveOutputConfig", "ANY_HOSTS"]
+__all__ = ["FoxgloveOutputConfig"]
 
-#: Addresses that mean "every interface": a claim on them collides with any other.
-ANY_HOSTS = frozenset({"0.0.0.0", "::", "*"})
 #: A DNS name: labels of letters, digits and hyphens, dot separated.
 _LABEL = r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
 _HOSTNAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(\.{_LABEL})*$")
@@ -80,8 +78,7 @@ class FoxgloveOutputConfig(OutputConfig):
         """The TCP port it listens on (a port 0 asks for any free one: no claim)."""
         out = super().claims()
         if self.port:
-            host = "*" if self.host in ANY_HOSTS else self.host.lower()
-            out.append(Claim("port", ("tcp", host, str(self.port)), f"listen on tcp {self.host}:{self.port}"))
+            out.append(listen_claim("port", "tcp", self.host, self.port))
         return out
 
     def hz(self, kind: str) -> float:

@@ -21,7 +21,7 @@ import json
 import sys
 
 import foxglove.layouts as fl
-from edged_draft.estimate import DRAFT_MARKS
+from edged.estimates import ESTIMATE_KINDS
 
 __all__ = ["ESTIMATE_LOCATION", "build", "layout_json"]
 
@@ -102,7 +102,7 @@ def _manoeuvre() -> fl.PlotPanel:
 
 
 def _drafts() -> fl.PlotPanel:
-    marks = [_series(f"/est/draft.marks.{m}.mean", m.replace("_", " ")) for m in DRAFT_MARKS]
+    marks = [_series(f"/est/draft.marks.{m}.mean", m.replace("_", " ")) for m in ESTIMATE_KINDS["draft"].marks]
     return _plot("Drafts (m): marks' means, mean; trim, list right", [
         *marks,
         _series("/est/draft.mean_draft", "mean draft"),

@@ -3,7 +3,7 @@
 A browser (Foxglove) connected to it sees what an MCAP recording of the same records
 holds: the same topics (`/est/<name>`, `/meas/<kind>/<source>`, `/location/<source>`,
 `/health`), the same JSON schemas and the same JSON bytes, because both take them from
-`edged_mcap.channels` (`encode`, `dumps`, `to_ns`) and `edged_mcap.schemas`; a
+`edged.channels` (`encode`, `dumps`, `to_ns`) and `edged.schemas`; a
 message's log time is the record's data time, as in the recording. So one layout
 (`deploy/foxglove-layout.json`) serves the live vessel and its recordings.
 
@@ -31,8 +31,8 @@ import contextlib
 from typing import Any, ClassVar
 
 import foxglove
-from edged_mcap.channels import MAX_T, dumps, encode, to_ns
-from edged_mcap.schemas import LOCATION_FIX, MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
+from edged.channels import MAX_T, dumps, encode, to_ns
+from edged.schemas import LOCATION_FIX, MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
 
 from edged.plugin import OutputPlugin, PluginContext
 from edged.ratelimit import DataTimeRateLimiter

@@ -19,7 +19,7 @@ from typing import Any
 
 from edged.health import ComponentHealth
 
-from .channels import MAX_T, dumps, encode, to_ns
+from edged.channels import MAX_T, dumps, encode, to_ns
 from .mcapfile import McapFile
 
 __all__ = ["DERIVED", "MAX_T", "Recorded", "WriteFailed", "record_batch"]

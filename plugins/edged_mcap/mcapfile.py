@@ -11,7 +11,7 @@ from typing import BinaryIO
 from mcap.writer import CompressionType, Writer
 
 from .fastmessages import FastMessages, PackedChunkIndexes
-from .schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
+from edged.schemas import MESSAGE_ENCODING, SCHEMA_ENCODING, schema_bytes
 
 __all__ = ["McapFile", "COMPRESSION"]
 

@@ -18,7 +18,7 @@ from edged.records import RawRecord
 from edged.logformats import UnknownFormat
 from edged.timecheck import BAD_TIME, DEFAULT_LIMITS, TimeLimits, TimeWindow
 
-from .channels import RAW_PREFIX, NotRaw, raw_from_message
+from edged.channels import RAW_PREFIX, NotRaw, raw_from_message
 from .reading import NoRecords, ReadReport, iter_messages
 
 __all__ = ["read_raw"]

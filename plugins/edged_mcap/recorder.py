@@ -52,7 +52,7 @@ from edged.plugin import OutputPlugin, PluginContext
 
 from . import files
 from .batches import DERIVED, WriteFailed, record_batch
-from .channels import to_ns
+from edged.channels import to_ns
 from .config import McapConfig
 from .mcapfile import McapFile
 from .placement import Placement

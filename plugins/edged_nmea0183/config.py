@@ -7,14 +7,12 @@ transport is 'tcp'` rather than a message about the table as a whole.
 
 from __future__ import annotations
 
-import ipaddress
-import os
 from typing import Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
 from edged.config import MAX_WATCHDOG, ReconnectSettings
-from edged.plugin import Claim, InputConfig
+from edged.plugin import Claim, InputConfig, listen_claim, serial_claim
 
 Transport = Literal["serial", "tcp", "udp", "file"]
 ChecksumPolicy = Literal["require", "allow-missing", "ignore"]
@@ -70,24 +68,7 @@ class Nmea0183Config(InputConfig, ReconnectSettings):
         A TCP input is a client (a multiplexer serves many) and a file is only read.
         """
         if self.transport == "udp" and self.port is not None:
-            host = _udp_host(self.bind)
-            shown = f"[{self.bind}]" if ":" in self.bind else self.bind
-            return [Claim("port", ("udp", host, str(self.port)), f"listen on udp {shown}:{self.port}")]
-        if self.transport == "serial" and self.device and "://" not in self.device:
-            # pyserial URLs (socket://, loop://, rfc2217://) hold no device of their own.
-            return [Claim("device", ("serial", os.path.realpath(self.device)), f"read serial {self.device}")]
+            return [listen_claim("port", "udp", self.bind, self.port)]
+        if self.transport == "serial" and self.device:
+            return serial_claim(self.device, text=f"read serial {self.device}")
         return []
-
-
-#: Addresses that listen on every address of the port.
-_ANY = {"", "0.0.0.0", "::", "*"}
-
-
-def _udp_host(bind: str) -> str:
-    """The bind address as compared between inputs: `*` for a wildcard."""
-    if bind in _ANY:
-        return "*"
-    try:
-        return ipaddress.ip_address(bind).compressed
-    except ValueError:
-        return bind.lower()

@@ -96,8 +96,8 @@ class Nmea0183Output(BridgeOutput):
     def encode(self, name: str) -> bytes:
         return SENTENCES[name](self.view, self.config.talker)
 
-    def deliver(self, name: str, payload: Any) -> None:
-        self.sink.send(payload)
+    def deliver(self, name: str, payload: Any) -> bool:
+        return self.sink.send(payload)
 
     def status(self) -> dict[str, Any]:
         return self.sink.status()

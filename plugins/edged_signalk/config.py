@@ -39,16 +39,6 @@ class SignalKOutputConfig(BridgeOutputConfig, TransportSettings):
     #: draft); the defaults: heading 5, the others 1. 0 switches one off.
     rates: dict[str, float] = Field(default_factory=dict)
 
-    @field_validator("worker")
-    @classmethod
-    def _in_the_loop(cls, v: str) -> str:
-        # An output's process runs its event loop only during a call (open, close),
-        # so a link kept open in the background (the TCP server, the UDP socket)
-        # would never come up there.
-        if v != "loop":
-            raise ValueError('the Signal K output runs in the daemon\'s loop only (worker = "loop"): '
-                             "its links are kept open by tasks that a process of its own would not run")
-        return v
 
     @field_validator("context")
     @classmethod

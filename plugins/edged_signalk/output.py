@@ -78,11 +78,11 @@ class SignalKOutput(BridgeOutput):
                 self.ctx.health.count("rejected.bad_mark", bad)
         return encode_delta(self.config.context, self.source, stamp, VALUES[name](view))
 
-    def deliver(self, name: str, payload: Any) -> None:
+    def deliver(self, name: str, payload: Any) -> bool:
         if self.sink is None:  # written before open: cannot happen in the runtime
             self.ctx.health.count("unsent.link_down")
-            return
-        self.sink.send(payload)
+            return False
+        return self.sink.send(payload)
 
     def status(self) -> dict[str, Any]:
         return self.sink.status() if self.sink is not None else {}

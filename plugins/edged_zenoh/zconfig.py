@@ -31,7 +31,7 @@ import zenoh
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from edged.config import not_below
-from edged.plugin import Claim
+from edged.plugin import Claim, listen_claim
 
 __all__ = [
     "DEFAULT_PORT",
@@ -62,7 +62,6 @@ _WILD_RE = re.compile(r"[*$?#]")
 #: Any endpoint with an address and a port, and the transport protocol its port is of.
 _PORT_RE = re.compile(r"^(?P<proto>[a-z0-9]+)/(?P<host>\[[^\]]+\]|[^:/\[\]]+):(?P<port>\d+)(?P<rest>[#?/].*)?$")
 _PORT_PROTO = {"tcp": "tcp", "tls": "tcp", "ws": "tcp", "udp": "udp", "quic": "udp"}
-_ANY_HOSTS = {"0.0.0.0", "::", "[::]", "*"}
 #: Longest wait between two session open attempts, in seconds: a day.
 MAX_RETRY = 86_400.0
 
@@ -211,9 +210,7 @@ class ZenohSettings(BaseModel):
             proto = _PORT_PROTO.get(m["proto"]) if m else None
             if m is None or proto is None or int(m["port"]) == 0:
                 continue
-            host = m["host"]
-            host = "*" if host in _ANY_HOSTS else host.strip("[]").lower()
-            out.append(Claim(f"listen.{i}", (proto, host, m["port"]), f"listen on {ep}"))
+            out.append(listen_claim(f"listen.{i}", proto, m["host"], m["port"], f"listen on {ep}"))
         return out
 
     @field_validator("zenoh_config")

@@ -94,7 +94,7 @@ def test_ngt1_on_a_serial_port_is_told_to_receive_all_and_decodes_like_a_bus():
         assert all(m.values["heading"] == pytest.approx(1.512) for m in hdg)
         assert health.counters["bst_messages"] == 3 and health.counters["bytes_sent"] == len(sent)
         # as recorded (the MCAP raw channel's JSON) and read back, the same measurements
-        from edged_mcap.channels import encode, raw_from_message
+        from edged.channels import encode, raw_from_message
 
         again = []
         decoder = GatewayInput.make_decoder("ngt", None, ComponentHealth("r", "input", "can", ManualClock(NOW)))

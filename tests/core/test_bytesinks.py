@@ -33,11 +33,11 @@ async def test_udp_sends_each_message_as_one_datagram() -> None:
     rx.setblocking(False)
     h = health()
     sink = make_sink(settings(transport="udp", port=rx.getsockname()[1]), h)
-    sink.send(b"early\r\n")  # before the link is up: counted, not raised
+    assert sink.send(b"early\r\n") is False  # before the link is up: counted, not raised
     assert h.counters["unsent.link_down"] == 1
     await sink.open()
     await wait_for(lambda: sink.up, WAIT)
-    sink.send(b"$EDHDT,1.0,T*00\r\n")
+    assert sink.send(b"$EDHDT,1.0,T*00\r\n") is True
     loop = asyncio.get_running_loop()
     data = await asyncio.wait_for(loop.sock_recv(rx, 2048), WAIT)
     assert data == b"$EDHDT,1.0,T*00\r\n"
@@ -83,7 +83,7 @@ async def test_a_client_that_does_not_read_loses_messages_and_slows_nobody() -> 
     await wait_for(lambda: sink.status()["clients"] == 1, WAIT)
     chunk = b"x" * 65000 + b"\r\n"
     for _ in range(400):  # 26 MB: more than any kernel buffers for one socket
-        sink.send(chunk)
+        assert sink.send(chunk)  # the server sent it: only that client misses some
     assert h.counters["dropped.slow_client"] > 0
     slow.close()
     await sink.close()
@@ -112,7 +112,7 @@ async def test_a_port_that_cannot_be_opened_is_retried_and_counted_never_raised(
     sink = make_sink(settings(transport="serial", device="/dev/edged-no-such-port", backoff_initial=0.01), h)
     await sink.open()
     await wait_for(lambda: h.counters.get("connect_failures", 0) >= 2, WAIT)
-    sink.send(b"x\r\n")
+    assert sink.send(b"x\r\n") is False
     assert h.counters["unsent.link_down"] == 1 and "cannot open" in (h.last_error or "")
     await sink.close()
 
@@ -126,6 +126,7 @@ async def test_a_tcp_port_in_use_is_retried_and_counted() -> None:
     await sink.open()
     await wait_for(lambda: h.counters.get("connect_failures", 0) >= 1, WAIT)
     assert h.info["link"] in ("disconnected", "connecting")
+    assert sink.send(b"x\r\n") is False and h.counters["unsent.link_down"] == 1
     await sink.close()
     busy.close()
 

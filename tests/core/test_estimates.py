@@ -75,7 +75,7 @@ def test_an_estimate_as_json_has_the_common_fields_and_its_time_wins():
 
 
 def test_the_markdown_and_the_mcap_schemas_are_made_from_the_kinds():
-    from edged_mcap.schemas import schema_dict
+    from edged.schemas import schema_dict
 
     md = kinds_markdown()
     for kind in ESTIMATE_KINDS.values():
@@ -122,7 +122,7 @@ def test_kinds_load_lazily_skip_a_broken_one_and_may_be_registered_by_hand(monke
 
 
 def test_register_kind_adds_one_beside_the_installed_ones(monkeypatch):
-    from edged_mcap.schemas import _estimate_kind
+    from edged.schemas import _estimate_kind
 
     monkeypatch.setattr(ESTIMATE_KINDS, "_registered", {})  # (restored after the test)
     monkeypatch.setattr(ESTIMATE_KINDS, "_all", None)

@@ -133,6 +133,18 @@ BAD: list[tuple[str, str, list[tuple[str, str]]]] = [
         [("inputs.a.device and inputs.b.device", "both read serial /dev/ttyUSB0")],
     ),
     (
+        "bridge-tcp-and-foxglove-one-port",
+        '[outputs.a]\ntype = "nmea0183"\ntransport = "tcp"\nport = 8765\n[outputs.f]\ntype = "foxglove"\n',
+        [("outputs.a.port and outputs.f.port", "both listen on tcp 127.0.0.1:8765")],
+    ),
+    (
+        "bridge-serial-on-an-inputs-device",
+        f'[inputs.a]\n{SERIAL}device = "/dev/ttyUSB0"\n[outputs.b]\ntype = "signalk"\ntransport = "serial"\n'
+        'device = "/dev/ttyUSB0"\n',
+        [("inputs.a.device and outputs.b.device", "both want the same resource (read serial /dev/ttyUSB0; "
+          "write serial /dev/ttyUSB0)")],
+    ),
+    (
         "zenoh-and-nmea-udp",
         f'[inputs.a]\n{UDP}port = 7447\n[outputs.z]\n{ZOUT}listen = ["udp/127.0.0.1:7447"]\n',
         [("inputs.a.port and outputs.z.listen.0", "both want the same resource")],

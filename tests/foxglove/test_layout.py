@@ -1,7 +1,7 @@
 """`deploy/foxglove-layout.json` cannot rot: it is what `edged_foxglove.layout` makes,
 and every topic and field it names is one the recorder and the Foxglove output make
 for the example configuration (`deploy/edged.toml`), by the recorder's own naming
-(`edged_mcap.channels.encode`) and schemas."""
+(`edged.channels.encode`) and schemas."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from typing import Any, Iterator
 import pytest
 from edged_draft.estimate import DRAFT_MARKS
 from edged_foxglove.layout import ESTIMATE_LOCATION, layout_json
-from edged_mcap.channels import encode
-from edged_mcap.schemas import schema_dict
+from edged.channels import encode
+from edged.schemas import schema_dict
 
 from edged.records import KINDS, Estimate, HealthRecord, Measurement
 

@@ -134,6 +134,15 @@ def test_only_the_configured_estimates_are_routed_to_it() -> None:
     assert out.keys == frozenset({"est/stw_paper", "est/manoeuvre"})
 
 
+def test_sent_counts_what_went_not_what_the_link_refused() -> None:
+    out, sink, c = make()
+    out.write([manoeuvre(T0)])
+    assert c.health.counters["sent"] == 2  # HDT, ROT
+    sink.send = lambda data: False  # type: ignore[method-assign]  # the link is down
+    out.write([manoeuvre(T0 + 1.0)])
+    assert c.health.counters["sent"] == 2
+
+
 @pytest.mark.parametrize("cfg, words", [
     ({"talker": "ed"}, "two capital letters"),
     ({"talker": "EDX"}, "two capital letters"),
@@ -143,6 +152,7 @@ def test_only_the_configured_estimates_are_routed_to_it() -> None:
     ({"port": -1}, "greater than or equal to 0"),
     ({"max_age": 0}, "greater than 0"),
     ({"rates": {"HDT": float("nan")}}, "finite number"),
+    ({"worker": "process"}, "daemon's loop only"),
 ])
 def test_bad_configuration_is_refused_with_a_clear_message(cfg: dict, words: str) -> None:
     with pytest.raises(ValidationError, match=words):

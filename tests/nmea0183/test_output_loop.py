@@ -5,7 +5,6 @@ on the same port is read."""
 
 from __future__ import annotations
 
-import asyncio
 import socket
 
 from bridge_rig import T0, draft, manoeuvre, stw

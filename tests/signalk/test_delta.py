@@ -175,7 +175,7 @@ def test_nan_or_infinite_values_go_out_as_null_never_as_invalid_json() -> None:
 
 
 def test_only_its_roles_estimates_are_routed_and_others_ignored() -> None:
-    from edged.records import Estimate, Measurement
+    from edged.records import Measurement
 
     out, sink, c = make(stw="stw2", draft="")
     assert out.keys == frozenset({"est/stw2", "est/manoeuvre"})

@@ -61,8 +61,9 @@ class CaptureSink:
     async def close(self) -> None:
         pass
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes) -> bool:
         self.sent.append(data)
+        return True
 
     def status(self) -> dict[str, Any]:
         return {}

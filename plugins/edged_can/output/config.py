@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, model_validator
 
 from edged.config import ReconnectSettings
-from edged_bridge.base import BridgeOutputConfig
+from edged.bridgeoutput import BridgeOutputConfig
 
 __all__ = ["Nmea2000OutputConfig", "WATER_REFERENCE"]
 
@@ -78,16 +78,6 @@ class Nmea2000OutputConfig(BridgeOutputConfig, ReconnectSettings):
     #: Bytes that may wait for a gateway link before messages are dropped.
     link_buffer: int = Field(65536, ge=1024, le=64 * 1024 * 1024)
 
-    @field_validator("worker")
-    @classmethod
-    def _in_the_loop(cls, v: str) -> str:
-        # An output's process runs its event loop only during a call (open, close):
-        # the bus, the address claim's deadlines and the heartbeat are kept by tasks
-        # in the background, which would never run there.
-        if v != "loop":
-            raise ValueError('the NMEA 2000 output runs in the daemon\'s loop only (worker = "loop"): '
-                             "its link, address claim and heartbeat are tasks a process of its own would not run")
-        return v
 
     @model_validator(mode="after")
     def _where(self) -> "Nmea2000OutputConfig":

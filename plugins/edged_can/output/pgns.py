@@ -27,8 +27,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from edged_bridge.base import Message
-from edged_bridge.view import BridgeView
+from edged.bridgeoutput import Message
+from edged.bridgeview import BridgeView
 
 __all__ = ["PGNS", "Pgn", "Sid", "fields_of"]
 

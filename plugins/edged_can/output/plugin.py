@@ -24,7 +24,7 @@ import contextlib
 from typing import Any, ClassVar
 
 from edged.plugin import PluginContext
-from edged_bridge.base import BridgeOutput, Message
+from edged.bridgeoutput import BridgeOutput, Message
 
 from . import wire
 from .citizen import Citizen, name_of
@@ -122,15 +122,15 @@ class Nmea2000Output(BridgeOutput):
             return None
         return Frame(pgn.prio, int(name), self.config.address, 255, payload)
 
-    def deliver(self, name: str, payload: Frame) -> None:
+    def deliver(self, name: str, payload: Frame) -> bool:
         if self.citizen is not None:
             addr = self.citizen.address
             if addr is None:
                 up = self.link.connected.is_set()
                 self.ctx.health.count("unsent.no_address" if up else "unsent.link_down")
-                return
+                return False
             payload = payload._replace(src=addr)
-        self.link.send(payload)
+        return self.link.send(payload)
 
     def status(self) -> dict[str, Any]:
         return {"transport": self.config.transport, "where": self.config.where()}

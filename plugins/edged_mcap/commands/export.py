@@ -25,7 +25,7 @@ from edged.registry import Registry
 from edged.subcommand import EXIT_OK, EXIT_USAGE, existing_file, fail, Subcommand
 
 from ..reading import ReadReport, iter_messages
-from ..schemas import MESSAGE_ENCODING
+from edged.schemas import MESSAGE_ENCODING
 
 
 class OutputError(OSError):

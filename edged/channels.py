@@ -1,4 +1,8 @@
-"""Records to MCAP messages and back: topics and payloads of DESIGN §7.
+"""Records to channel messages and back: topics and payloads of DESIGN §7.
+
+In the core because two outputs speak them: the MCAP recorder (`edged_mcap`) writes
+them and the live Foxglove server (`edged_foxglove`) serves the same bytes, so a
+layout made for one shows the other; neither plugin may import the other.
 
 `encode(record)` gives the messages one record becomes (a position is also a
 `foxglove.LocationFix`); `raw_from_message` turns a recorded raw message back into the
@@ -13,10 +17,10 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Iterable
 
-from edged import jsonpayload
-from edged.estimates import ESTIMATE_KINDS
-from edged.jsonpayload import record_json
-from edged.records import KINDS, Estimate, HealthRecord, Measurement, RawRecord
+from . import jsonpayload
+from .estimates import ESTIMATE_KINDS
+from .jsonpayload import record_json
+from .records import KINDS, Estimate, HealthRecord, Measurement, RawRecord
 
 from .schemas import LOCATION_FIX
 

@@ -1,4 +1,4 @@
-"""JSON schemas of the recorded channels (DESIGN §7).
+"""JSON schemas of the channels recorded to MCAP and served live to Foxglove (DESIGN §7).
 
 Every channel carries a JSON Schema so that Foxglove and other MCAP tools can show
 field names and types without knowing edged. Measurement schemas are derived from
@@ -12,8 +12,8 @@ import json
 from functools import cache
 from typing import Any
 
-from edged.estimates import COMMON_FIELDS, ESTIMATE_KINDS, EstField, EstimateKind
-from edged.records import KINDS, Field, KindSpec
+from .estimates import COMMON_FIELDS, ESTIMATE_KINDS, EstField, EstimateKind
+from .records import KINDS, Field, KindSpec
 
 __all__ = [
     "SCHEMA_ENCODING",

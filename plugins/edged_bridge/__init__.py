@@ -1,1 +1,0 @@
-"""Moved to the core (edged.bridgeoutput, edged.bridgeview, edged.bytesinks)."""
