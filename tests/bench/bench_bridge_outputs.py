@@ -163,21 +163,31 @@ async def consume(ports: dict[str, int], ready: Path) -> None:
     async def drain_ws() -> None:
         while True:
             try:
-                ws = await websockets.connect(f"ws://127.0.0.1:{ports['foxglove']}",
-                                              subprotocols=["foxglove.websocket.v1"], max_size=None)
-            except OSError:
+                ws = await websockets.connect(f"ws://127.0.0.1:{ports['foxglove']}", max_size=None,
+                                              subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"])
+            except (OSError, websockets.exceptions.WebSocketException):
                 await asyncio.sleep(0.05)
                 continue
             n = 0
-            async for m in ws:
-                if isinstance(m, str):
-                    d = json.loads(m)
-                    if d.get("op") == "advertise":
-                        subs = [{"id": (n := n + 1), "channelId": c["id"]} for c in d["channels"]]
-                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+            try:
+                async for m in ws:
+                    if isinstance(m, str):
+                        d = json.loads(m)
+                        if d.get("op") == "advertise":
+                            subs = [{"id": (n := n + 1), "channelId": c["id"]} for c in d["channels"]]
+                            await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+            except websockets.exceptions.WebSocketException:
+                pass
+
+    async def drain_tcp_forever() -> None:
+        while True:
+            try:
+                await drain_tcp()
+            except OSError:
+                await asyncio.sleep(0.05)
 
     ready.write_text("ready\n")
-    await asyncio.gather(drain_udp(), drain_tcp(), drain_ws())
+    await asyncio.gather(drain_udp(), drain_tcp_forever(), drain_ws())
 
 
 def main() -> int:
