@@ -11,7 +11,8 @@ def test_example_config_is_valid(capsys):
     assert main(["check-config", str(DEPLOY / "edged.toml")]) == 0
     out = capsys.readouterr().out
     assert "5 inputs (gnss1, gyro, doppler, can0, shore)" in out
-    assert "2 outputs (zenoh, recorder)" in out
+    # the bridge outputs are there, switched off, and checked all the same
+    assert "6 outputs (zenoh, recorder, bridge_nmea, bridge_n2k, signalk, foxglove)" in out
 
 
 def _commented_tables(text: str, type_: str) -> list[str]:
