@@ -16,6 +16,7 @@ send) and where it goes (`deliver`, False when it could not go: `sent` counts wh
 
 from __future__ import annotations
 
+import asyncio
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -28,6 +29,9 @@ from .records import Estimate
 from .bridgeview import ROLES, BridgeView, Roles
 
 __all__ = ["Message", "BridgeOutputConfig", "BridgeOutput"]
+
+#: Seconds between looks at the link while `ready()` waits.
+READY_POLL = 0.02
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,12 +52,16 @@ class BridgeOutputConfig(OutputConfig):
     manoeuvre: str = "manoeuvre"
     #: The draft estimator instance whose estimates are sent; "": none.
     draft: str = "draft"
-    #: Seconds of data time after which an estimate that was not renewed, while
-    #: others were, goes out as "not available" (an estimator that stopped).
+    #: Seconds of data time an estimator's values may be apart from the estimate
+    #: being sent and still go out beside it (farther: "not available", e.g. the
+    #: heading of a manoeuvre estimator that stopped, beside a new STW).
     max_age: float = Field(5.0, gt=0.0, le=3600.0)
     #: Messages per second of data time, by message name; those not named keep their
     #: default, 0 switches one off.
     rates: dict[str, float] = Field(default_factory=dict)
+    #: `edged replay`: seconds to wait at the start for the link to be up (a socket
+    #: open, a bus joined) before the first record; 0 does not wait.
+    replay_wait: float = Field(5.0, ge=0.0, le=3600.0)
 
     @field_validator("worker")
     @classmethod
@@ -91,6 +99,23 @@ class BridgeOutput(OutputPlugin):
                 raise ValueError(f"rates: unknown message {name!r} (known: {', '.join(sorted(known))})")
             if not hz >= 0 or hz > 1000:
                 raise ValueError(f"rates.{name}: {hz} is not a rate between 0 and 1000 Hz")
+
+    def linked(self) -> bool:
+        """Whether the link is up (`ready` waits for it); the subclass says how."""
+        return True
+
+    async def ready(self, timeout: float | None = None) -> bool:
+        """Until `linked()` (polled), at most `timeout` s of wall time (default
+        `replay_wait`): a replay's first messages are not lost to a link that is
+        still opening. A TCP server is up when it listens: its clients come when
+        they come."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + (self.config.replay_wait if timeout is None else max(0.0, timeout))
+        while not self.linked():
+            if loop.time() >= deadline:
+                return False
+            await asyncio.sleep(READY_POLL)
+        return True
 
     def encode(self, name: str) -> Any | None:
         """The message `name` made from `self.view`; None: nothing to send now."""

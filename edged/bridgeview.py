@@ -3,9 +3,17 @@
 A value an instrument must not take as a measurement is None here, and each output
 turns None into its format's "not available" (an empty NMEA 0183 field with status
 V, an N2K field's "no data" code, a null in a Signal K delta): an estimate that is
-stale (its inputs stopped, `stale`), still converging, missing, or older than
-`max_age` seconds of data time behind the newest estimate seen, and a draft mark
-whose sensor is out (`ok` false). A number sent is never a stale number.
+stale (its inputs stopped, `stale`), still converging, missing, or more than
+`max_age` seconds of data time away from the estimate being sent (the one that
+arrived last: a heading beside an STW must be of about the same moment), and a draft
+mark whose sensor is out (`ok` false). A number sent is never a stale number.
+
+The age is judged against the estimate that arrived, not the newest ever seen:
+estimators in processes of their own run apart (in a fast replay one is seconds of
+data ahead of another), and a message made of one estimator's values alone (HDT,
+127250) is then the same whatever the other's pace. A message that combines two
+(VHW's heading beside its STW) takes the other's latest within `max_age`, which in a
+replay depends on how far apart the two ran.
 """
 
 from __future__ import annotations
@@ -50,7 +58,7 @@ class BridgeView:
     def __init__(self, roles: Roles, max_age: float = 5.0) -> None:
         self.roles = roles
         self.max_age = max_age
-        #: The newest estimate's data time (s, UNIX); None before the first.
+        #: The data time (s, UNIX) of the estimate that arrived last; None before.
         self.t: float | None = None
         self._latest: dict[str, Estimate] = {}
         self._role_of = roles.by_name()
@@ -66,8 +74,7 @@ class BridgeView:
         if role is None:
             return None
         self._latest[role] = est
-        if self.t is None or est.t > self.t:
-            self.t = est.t
+        self.t = est.t
         return role
 
     def valid(self, role: str) -> bool:
@@ -78,7 +85,7 @@ class BridgeView:
         v = e.values
         if v.get("stale") or v.get("converging"):
             return False
-        return self.t is None or self.t - e.t <= self.max_age
+        return self.t is None or abs(self.t - e.t) <= self.max_age
 
     def get(self, role: str, field: str) -> float | None:
         """A number of the role's latest estimate (SI), None where not to be sent."""

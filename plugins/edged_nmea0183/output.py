@@ -93,6 +93,9 @@ class Nmea0183Output(BridgeOutput):
     async def close(self) -> None:
         await self.sink.close()
 
+    def linked(self) -> bool:
+        return self.sink.up
+
     def encode(self, name: str) -> bytes:
         return SENTENCES[name](self.view, self.config.talker)
 

@@ -78,6 +78,9 @@ class SignalKOutput(BridgeOutput):
                 self.ctx.health.count("rejected.bad_mark", bad)
         return encode_delta(self.config.context, self.source, stamp, VALUES[name](view))
 
+    def linked(self) -> bool:
+        return self.sink is not None and self.sink.up
+
     def deliver(self, name: str, payload: Any) -> bool:
         if self.sink is None:  # written before open: cannot happen in the runtime
             self.ctx.health.count("unsent.link_down")

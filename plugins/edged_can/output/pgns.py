@@ -107,10 +107,11 @@ def _pgn(number: int, roles: tuple[str, ...], hz: float, prio: int, fields: Fiel
 
 
 #: The PGNs, by name (their number as text); default rates and priorities are the
-#: standard's (canboat's transmission intervals where it has one).
+#: standard's (canboat's transmission intervals where it has one). 128259 and 130577
+#: go with each STW estimate (1 Hz), the manoeuvring state's latest values beside it.
 PGNS: dict[str, Pgn] = {p.message.name: p for p in (
-    _pgn(128259, ("stw", "manoeuvre"), 1.0, 2, _speed_128259),
-    _pgn(130577, ("stw", "manoeuvre"), 1.0, 3, _direction_130577),
+    _pgn(128259, ("stw",), 1.0, 2, _speed_128259),
+    _pgn(130577, ("stw",), 1.0, 3, _direction_130577),
     _pgn(127250, ("manoeuvre",), 10.0, 2, _heading_127250),
     _pgn(127251, ("manoeuvre",), 10.0, 2, _rate_127251),
     _pgn(128000, ("manoeuvre",), 1.0, 4, _leeway_128000),

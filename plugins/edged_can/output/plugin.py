@@ -122,6 +122,12 @@ class Nmea2000Output(BridgeOutput):
             return None
         return Frame(pgn.prio, int(name), self.config.address, 255, payload)
 
+    def linked(self) -> bool:
+        """The bus or gateway is open. Not the address: its claim runs on the clock,
+        which in a replay is the data's, so the first second of a replay goes before
+        an address is held (`unsent.no_address`)."""
+        return self.link.connected.is_set()
+
     def deliver(self, name: str, payload: Frame) -> bool:
         if self.citizen is not None:
             addr = self.citizen.address

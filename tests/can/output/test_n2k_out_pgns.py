@@ -25,14 +25,12 @@ def close(got: Any, want: float, res: float) -> bool:
 
 async def sent_after_both(rig: Any, stw: dict[str, Any] | None = None, man: dict[str, Any] | None = None
                           ) -> dict[int, Any]:
-    """Write an STW estimate, then a manoeuvre estimate 1 s later; the last message
-    of each PGN (the one made when both were known)."""
+    """Write a manoeuvre estimate, then an STW estimate of the same data time (128259
+    and 130577 go with the STW estimate); the last message of each PGN."""
     addr = await rig.claimed()
+    rig.out.write([man_est(T0 + 10.0, **(man or {}))])
     rig.out.write([stw_est(T0 + 10.0, **(stw or {}))])
-    rig.out.write([man_est(T0 + 11.0, **(man or {}))])
     got = await rig.peer.messages(ALL, src=addr)
-    while len(got.get(128259, [])) < 2 or len(got.get(130577, [])) < 2:
-        got = {k: got.get(k, []) + v for k, v in (await rig.peer.messages({128259, 130577}, src=addr)).items()}
     return {pgn: msgs[-1] for pgn, msgs in got.items()}
 
 
@@ -69,7 +67,7 @@ async def test_every_pgn_decodes_to_the_estimates(make_rig: Any) -> None:
 async def test_130577_is_a_fast_packet_of_several_frames(make_rig: Any) -> None:
     rig = await make_rig()
     addr = await rig.claimed()
-    rig.out.write([man_est(T0 + 5.0)])
+    rig.out.write([man_est(T0 + 5.0), stw_est(T0 + 5.0)])
     await rig.peer.messages({130577}, src=addr)
     frames = [f for f in rig.peer.frames if split(f.arbitration_id)[1] == 130577]
     assert len(frames) == 3 and [f.data[0] & 0x1F for f in frames] == [0, 1, 2]
