@@ -9,7 +9,11 @@ published subset at any replay speed.
 
 from __future__ import annotations
 
-__all__ = ["DataTimeRateLimiter"]
+from pydantic import BaseModel, Field, field_validator
+
+from .records import KINDS
+
+__all__ = ["DataTimeRateLimiter", "MeasurementRates"]
 
 # Time may step back by this much (seconds) before the limiter assumes a new
 # recording started and forgets the past; smaller steps are reordering and dropped.
@@ -46,3 +50,32 @@ class DataTimeRateLimiter:
             return False
         self._next[key] = t + period if t >= nxt + period else nxt + period
         return True
+
+
+#: The highest rate a measurement limit may name: above any sensor's, i.e. no limit.
+MAX_HZ = 1_000_000.0
+
+
+class MeasurementRates(BaseModel):
+    """Mixin of an output's configuration that serves measurements (the Zenoh topics,
+    the live Foxglove channels): the highest rate of each, by kind."""
+
+    #: Highest rate per measurement topic or channel (Hz of data time); 0 switches a
+    #: kind off, 1000000 lets every measurement through.
+    meas_default_hz: float = Field(10.0, ge=0, le=MAX_HZ)
+    #: Per measurement kind, overriding `meas_default_hz`.
+    meas_max_hz: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("meas_max_hz")
+    @classmethod
+    def _kinds(cls, v: dict[str, float]) -> dict[str, float]:
+        for kind, hz in v.items():
+            if kind not in KINDS:
+                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
+            if not 0 <= hz <= MAX_HZ:
+                raise ValueError(f"{kind}: {hz} is not a rate between 0 and {MAX_HZ:.0f} Hz")
+        return v
+
+    def hz(self, kind: str) -> float:
+        """The rate limit of a measurement kind (Hz of data time)."""
+        return float(self.meas_max_hz.get(kind, self.meas_default_hz))

@@ -14,7 +14,7 @@ import re
 from pydantic import Field, field_validator
 
 from edged.plugin import Claim, OutputConfig, listen_claim
-from edged.records import KINDS
+from edged.ratelimit import MeasurementRates
 
 __all__ = ["FoxgloveOutputConfig"]
 
@@ -23,7 +23,7 @@ _LABEL = r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
 _HOSTNAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(\.{_LABEL})*$")
 
 
-class FoxgloveOutputConfig(OutputConfig):
+class FoxgloveOutputConfig(OutputConfig, MeasurementRates):
     """Where the WebSocket server listens and which records it serves."""
 
     type: str = "foxglove"
@@ -42,10 +42,6 @@ class FoxgloveOutputConfig(OutputConfig):
     locations: bool = True
     #: Serve the health snapshots (`/health`).
     health: bool = True
-    #: Highest rate per measurement channel (Hz of data time); 0 switches a kind off.
-    meas_default_hz: float = Field(10.0, ge=0, le=1000)
-    #: Per measurement kind, overriding `meas_default_hz`.
-    meas_max_hz: dict[str, float] = Field(default_factory=dict)
     #: Messages queued per browser before the oldest is dropped (the SDK's backlog):
     #: a browser that falls behind loses old data, never holds the daemon.
     backlog: int = Field(1024, ge=1, le=1_000_000)
@@ -64,15 +60,6 @@ class FoxgloveOutputConfig(OutputConfig):
             raise ValueError(f"{v!r} is not an IP address or a host name")
         return v
 
-    @field_validator("meas_max_hz")
-    @classmethod
-    def _kinds(cls, v: dict[str, float]) -> dict[str, float]:
-        for kind, hz in v.items():
-            if kind not in KINDS:
-                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
-            if not 0 <= hz <= 1000:
-                raise ValueError(f"{kind}: {hz} is not a rate between 0 and 1000 Hz")
-        return v
 
     def claims(self) -> list[Claim]:
         """The TCP port it listens on (a port 0 asks for any free one: no claim)."""
@@ -80,7 +67,3 @@ class FoxgloveOutputConfig(OutputConfig):
         if self.port:
             out.append(listen_claim("port", "tcp", self.host, self.port))
         return out
-
-    def hz(self, kind: str) -> float:
-        """The rate limit of a measurement kind's channels (Hz of data time)."""
-        return float(self.meas_max_hz.get(kind, self.meas_default_hz))

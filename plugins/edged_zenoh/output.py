@@ -33,7 +33,7 @@ from edged.records import KINDS, Estimate, HealthRecord, Measurement
 
 from .keys import KeySpace, encode, payload_of, valid_chunk
 from .latest import LatestValues
-from edged.ratelimit import DataTimeRateLimiter
+from edged.ratelimit import DataTimeRateLimiter, MeasurementRates
 from .session import close_session, open_plugin_session, plugin_session_config
 from .zconfig import ZenohSettings, check_key_prefix
 
@@ -42,14 +42,11 @@ __all__ = ["ZenohOutput", "ZenohOutputConfig"]
 _JSON = zenoh.Encoding.APPLICATION_JSON
 
 
-class ZenohOutputConfig(OutputConfig, ZenohSettings):
+class ZenohOutputConfig(OutputConfig, MeasurementRates, ZenohSettings):
     #: Key prefix; default `vessel/<vessel_id>`.
     key_prefix: str | None = None
     #: Publish canonical measurements under `meas/<kind>/<source>` at all.
     measurements: bool = True
-    #: Highest rate (Hz of data time) per measurement topic; 0 switches a kind off.
-    meas_default_hz: float = Field(10.0, ge=0)
-    meas_max_hz: dict[str, float] = Field(default_factory=dict)
     #: Answer `get` on `<prefix>/**` with the latest value of each key.
     queryable: bool = True
     #: `edged replay`: seconds to wait at the start for the session to be linked (a
@@ -68,15 +65,6 @@ class ZenohOutputConfig(OutputConfig, ZenohSettings):
     def _prefix(cls, v: str | None) -> str | None:
         return None if v is None else check_key_prefix(v)
 
-    @field_validator("meas_max_hz")
-    @classmethod
-    def _kinds(cls, v: dict[str, float]) -> dict[str, float]:
-        for kind, hz in v.items():
-            if kind not in KINDS:
-                raise ValueError(f"unknown measurement kind {kind!r} (known: {', '.join(KINDS)})")
-            if hz < 0:
-                raise ValueError(f"{kind}: a rate cannot be negative")
-        return v
 
 
 _NO_KEY = ""
@@ -110,7 +98,7 @@ class ZenohOutput(OutputPlugin):
         self.connected = asyncio.Event()
         self._limiter = DataTimeRateLimiter()
         self._hz: dict[str, float] = (
-            {k: config.meas_max_hz.get(k, config.meas_default_hz) for k in KINDS} if config.measurements else {}
+            {k: config.hz(k) for k in KINDS} if config.measurements else {}
         )
         # Key per (kind, source) / estimate name; _NO_KEY when the name cannot be a key.
         self._meas_keys: dict[tuple[str, str], str] = {}
