@@ -27,8 +27,9 @@ from .ratelimit import DataTimeRateLimiter
 from .records import Estimate
 
 from .bridgeview import ROLES, BridgeView, Roles
+from .bytesinks import ByteSink, make_sink
 
-__all__ = ["Message", "BridgeOutputConfig", "BridgeOutput"]
+__all__ = ["Message", "BridgeOutputConfig", "BridgeOutput", "TextBridgeOutput"]
 
 #: Seconds between looks at the link while `ready()` waits.
 READY_POLL = 0.02
@@ -139,3 +140,35 @@ class BridgeOutput(OutputPlugin):
                     payload = self.encode(m.name)
                     if payload is not None and self.deliver(m.name, payload):
                         count("sent")
+
+
+class TextBridgeOutput(BridgeOutput):
+    """A bridge output whose messages are bytes on a `edged.bytesinks` link (NMEA 0183
+    sentences, Signal K deltas); its configuration is also a `TransportSettings`."""
+
+    def __init__(self, config: BridgeOutputConfig, ctx: PluginContext) -> None:
+        super().__init__(config, ctx)
+        #: Made at open (a plugin in a process of its own is pickled before); a test
+        #: may put its own here first.
+        self.sink: ByteSink | None = None
+
+    async def open(self) -> None:
+        if self.sink is None:
+            self.sink = make_sink(self.config, self.ctx.health)  # type: ignore[arg-type]
+        await self.sink.open()
+
+    async def close(self) -> None:
+        if self.sink is not None:
+            await self.sink.close()
+
+    def linked(self) -> bool:
+        return self.sink is not None and self.sink.up
+
+    def deliver(self, name: str, payload: Any) -> bool:
+        if self.sink is None:  # written before open: not in the runtime
+            self.ctx.health.count("unsent.link_down")
+            return False
+        return self.sink.send(payload)
+
+    def status(self) -> dict[str, Any]:
+        return self.sink.status() if self.sink is not None else {}

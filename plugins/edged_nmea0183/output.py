@@ -21,10 +21,9 @@ from typing import Any, ClassVar
 
 from pydantic import Field, field_validator
 
-from edged.plugin import PluginContext
 
-from edged.bridgeoutput import BridgeOutput, BridgeOutputConfig, Message
-from edged.bytesinks import ByteSink, TransportSettings, make_sink
+from edged.bridgeoutput import BridgeOutputConfig, Message, TextBridgeOutput
+from edged.bytesinks import TransportSettings
 
 from .decoder import OWN_TALKER
 from .encode import SENTENCES
@@ -62,7 +61,7 @@ class Nmea0183OutputConfig(BridgeOutputConfig, TransportSettings):
 _STW, _MAN, _DRAFT = frozenset({"stw"}), frozenset({"manoeuvre"}), frozenset({"draft"})
 
 
-class Nmea0183Output(BridgeOutput):
+class Nmea0183Output(TextBridgeOutput):
     """VHW, VBW, VDR, HDT, ROT and XDR sentences over UDP, a TCP server or serial."""
 
     Config: ClassVar[type[Nmea0183OutputConfig]] = Nmea0183OutputConfig
@@ -79,28 +78,9 @@ class Nmea0183Output(BridgeOutput):
         Message("XDR", _DRAFT, 1.0),
     )
 
-    def __init__(self, config: Nmea0183OutputConfig, ctx: PluginContext) -> None:
-        super().__init__(config, ctx)
-        self.sink: ByteSink = make_sink(config, ctx.health)
-
     @classmethod
     def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:
         return {OWN_TALKER: frozenset({config.talker})}
 
-    async def open(self) -> None:
-        await self.sink.open()
-
-    async def close(self) -> None:
-        await self.sink.close()
-
-    def linked(self) -> bool:
-        return self.sink.up
-
     def encode(self, name: str) -> bytes:
         return SENTENCES[name](self.view, self.config.talker)
-
-    def deliver(self, name: str, payload: Any) -> bool:
-        return self.sink.send(payload)
-
-    def status(self) -> dict[str, Any]:
-        return self.sink.status()

@@ -17,10 +17,9 @@ No loops: no edged input reads Signal K, so the output marks nothing (`own_marks
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import ClassVar
 
-from edged.bridgeoutput import BridgeOutput, Message
-from edged.bytesinks import ByteSink, make_sink
+from edged.bridgeoutput import Message, TextBridgeOutput
 from edged.plugin import PluginContext
 
 from .config import SignalKOutputConfig
@@ -32,7 +31,7 @@ __all__ = ["SignalKOutput"]
 _STW, _MAN, _DRAFT = frozenset({"stw"}), frozenset({"manoeuvre"}), frozenset({"draft"})
 
 
-class SignalKOutput(BridgeOutput):
+class SignalKOutput(TextBridgeOutput):
     """Signal K deltas of the fused values over a TCP server, UDP or serial."""
 
     Config: ClassVar[type[SignalKOutputConfig]] = SignalKOutputConfig
@@ -49,18 +48,7 @@ class SignalKOutput(BridgeOutput):
 
     def __init__(self, config: SignalKOutputConfig, ctx: PluginContext) -> None:
         super().__init__(config, ctx)
-        #: Made at open: a plugin in a process of its own is pickled before.
-        self.sink: ByteSink | None = None
         self.source = f"edged.{ctx.name}"
-
-    async def open(self) -> None:
-        if self.sink is None:
-            self.sink = make_sink(self.config, self.ctx.health)
-        await self.sink.open()
-
-    async def close(self) -> None:
-        if self.sink is not None:
-            await self.sink.close()
 
     def encode(self, name: str) -> bytes | None:
         view = self.view
@@ -77,15 +65,3 @@ class SignalKOutput(BridgeOutput):
             if bad:
                 self.ctx.health.count("rejected.bad_mark", bad)
         return encode_delta(self.config.context, self.source, stamp, VALUES[name](view))
-
-    def linked(self) -> bool:
-        return self.sink is not None and self.sink.up
-
-    def deliver(self, name: str, payload: Any) -> bool:
-        if self.sink is None:  # written before open: cannot happen in the runtime
-            self.ctx.health.count("unsent.link_down")
-            return False
-        return self.sink.send(payload)
-
-    def status(self) -> dict[str, Any]:
-        return self.sink.status() if self.sink is not None else {}

@@ -40,7 +40,7 @@ async def test_the_outputs_sentences_looped_into_an_input_make_no_measurement() 
     try:
         nmea = next(o for o in rt.outputs if o.name == "nmea")
         inp = next(i for i in rt.inputs if i.name == "bridge")
-        await wait_for(lambda: nmea.plugin.plugin.sink.up and inp.health.state == "connected")
+        await wait_for(lambda: nmea.plugin.plugin.linked() and inp.health.state == "connected")
         for k in range(10):
             for e in (manoeuvre(T0 + k), stw(T0 + k), draft(T0 + k)):
                 rt.router.publish(e)
