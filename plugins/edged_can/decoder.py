@@ -31,7 +31,8 @@ from .dbc import DbcDecoder
 from .emit import Emitter
 from . import formats
 from .n2k import N2kDecoder
-from .output.marks import OWN_NAME, parse_names
+from .n2k_codec import split_id
+from .output.marks import OWN_GATEWAY_TX, OWN_NAME, parse_names, parse_pgns
 
 CLASSIC_MAX = 8
 FD_MAX = 64
@@ -42,6 +43,8 @@ class CanDecoder:
         self.bus = bus
         self._health = health
         self._own = _OwnGuard(parse_names(own.get(OWN_NAME, frozenset())))
+        #: PGNs edged sends through a YDWG: its `T` lines of them are edged's own.
+        self._own_tx = parse_pgns(own.get(OWN_GATEWAY_TX, frozenset()))
         emit = Emitter(health)
         self._dbc = DbcDecoder(bus, config, health, emit)
         self._n2k = N2kDecoder(bus, config, health, emit)
@@ -107,6 +110,9 @@ class CanDecoder:
             if isinstance(item, formats.Frame):
                 if item.tx:
                     health.count("frames.tx")
+                    if self._own_tx and split_id(item.can_id)[1] in self._own_tx:
+                        health.count("rejected.own_output")
+                        continue
                 out.extend(self.decode(RawRecord(raw.protocol, raw.source, raw.t, item.data,
                                                  {"id": item.can_id, "ext": True})))
             elif self._own.names and self._own.message(item.pgn, item.src, item.payload):

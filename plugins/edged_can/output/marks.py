@@ -8,10 +8,14 @@ the output's modules so that the decoder imports a constant, not the output.
 
 from __future__ import annotations
 
-__all__ = ["OWN_NAME", "name_hex", "parse_names"]
+__all__ = ["OWN_NAME", "OWN_GATEWAY_TX", "name_hex", "parse_names", "parse_pgns"]
 
 #: The mark: 64-bit ISO NAMEs as 16 hex digits (lower case).
 OWN_NAME = "n2k.name"
+#: The mark of what edged sends through a YDWG gateway: the PGNs (decimal). The
+#: gateway sends them with its own address and NAME and echoes them to its readers
+#: as `T` lines: a `T` frame of one of these PGNs is edged's own.
+OWN_GATEWAY_TX = "n2k.gateway_tx"
 
 
 def name_hex(name: int) -> str:
@@ -28,5 +32,18 @@ def parse_names(marks: object) -> frozenset[int]:
         except ValueError:
             continue
         if 0 <= n < 1 << 64:
+            out.add(n)
+    return frozenset(out)
+
+
+def parse_pgns(marks: object) -> frozenset[int]:
+    """The PGNs of a mark's values; what is not a PGN (0 to 2^18 - 1) is left out."""
+    out = set()
+    for v in marks if isinstance(marks, (set, frozenset, list, tuple)) else ():
+        try:
+            n = int(str(v))
+        except ValueError:
+            continue
+        if 0 <= n < 1 << 18:
             out.add(n)
     return frozenset(out)

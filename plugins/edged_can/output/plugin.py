@@ -30,7 +30,7 @@ from . import wire
 from .citizen import Citizen, name_of
 from .config import WATER_REFERENCE, Nmea2000OutputConfig
 from .links import N2kLink, make_link
-from .marks import OWN_NAME, name_hex
+from .marks import OWN_GATEWAY_TX, OWN_NAME, name_hex
 from .pgns import PGNS, Sid, fields_of
 from .wire import Frame
 
@@ -65,8 +65,13 @@ class Nmea2000Output(BridgeOutput):
     @classmethod
     def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:
         """Our NAME, whatever the transport: a gateway's own claim is not ours, but
-        a bus we also read may carry our claim (`can`)."""
-        return {OWN_NAME: frozenset({name_hex(name_of(config))})}
+        a bus we also read may carry our claim (`can`). Through a YDWG, also the PGNs
+        it sends: the gateway echoes them as its own transmissions (`T` lines)."""
+        marks = {OWN_NAME: frozenset({name_hex(name_of(config))})}
+        if config.transport == "ydwg":
+            sent = (m.name for m in cls.messages if float(config.rates.get(m.name, m.hz)) > 0)
+            marks[OWN_GATEWAY_TX] = frozenset(sent)
+        return marks
 
     # -- lifecycle --------------------------------------------------------------------
     async def open(self) -> None:

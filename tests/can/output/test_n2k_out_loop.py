@@ -14,7 +14,8 @@ from edged.records import RawRecord
 from edged_can.config import CanConfig
 from edged_can.decoder import CanDecoder
 from edged_can.formats import can_id
-from edged_can.output.marks import OWN_NAME, name_hex, parse_names
+from edged_can.output.config import Nmea2000OutputConfig
+from edged_can.output.marks import OWN_GATEWAY_TX, OWN_NAME, name_hex, parse_names, parse_pgns
 from edged_can.output.plugin import Nmea2000Output
 
 from .conftest import T0, man_est, stw_est, split
@@ -95,3 +96,26 @@ def test_whole_messages_of_a_gateway_from_our_address_are_refused() -> None:
 def test_marks_that_are_no_name_are_left_out() -> None:
     assert parse_names(frozenset({"c0788c00e7e04312", "not hex", "1" * 17})) == frozenset({0xC0788C00E7E04312})
     assert parse_names("c0788c00e7e04312") == frozenset()  # a mark's values are a set, not a string
+
+
+def test_a_ydwg_echo_of_what_we_send_through_it_is_refused() -> None:
+    """Through a YDWG the frames carry the gateway's address and NAME; it echoes them to
+    its readers as `T` lines. The output's marks name the PGNs it sends through it: a
+    `T` line of one of them is edged's own, an `R` line (another device) is not."""
+    cfg = Nmea2000OutputConfig(type="nmea2000", transport="ydwg", host="127.0.0.1", rates={"128000": 0})
+    marks = own_marks_of([(Nmea2000Output, cfg)])
+    assert marks[OWN_GATEWAY_TX] == frozenset({"128259", "130577", "127250", "127251", "129026"})
+    assert OWN_GATEWAY_TX not in Nmea2000Output.own_marks(Nmea2000OutputConfig(type="nmea2000"))  # on a bus
+    dec, health = decoder(marks)
+
+    def line(direction: str, pgn: int) -> RawRecord:
+        ident = can_id(2, pgn, 3, 255)
+        return RawRecord("can", "ydwg", T0, f"12:00:00.000 {direction} {ident:08X} 00 10 27 FF 7F FF 7F FC".encode(),
+                         {"format": "ydwg_raw"})
+
+    assert dec.decode(line("T", 127250)) == []  # our heading, echoed
+    assert [m.kind for m in dec.decode(line("R", 127250))] == ["heading"]  # a compass's
+    assert health.counters["rejected.own_output"] == 1 and health.counters["frames.tx"] == 1
+    plain, _ = decoder()
+    assert [m.kind for m in plain.decode(line("T", 127250))] == ["heading"]  # no output: read
+    assert parse_pgns(frozenset({"127250", "x", str(1 << 18)})) == frozenset({127250})
