@@ -42,12 +42,16 @@ def free_udp_port() -> int:
 
 
 def demo_config(
-    registry: Registry, record_dir: Path, udp_port: int, can_channel: str, *, zenoh: bool, vessel_id: str
+    registry: Registry, record_dir: Path, udp_port: int, can_channel: str, *, zenoh: bool, vessel_id: str,
+    foxglove_port: int = 0,
 ) -> dict[str, Any]:
-    """The demo's configuration: every installed estimator, the two inputs, the outputs."""
+    """The demo's configuration: every installed estimator, the two inputs, the outputs
+    (a live Foxglove view on 127.0.0.1 when `foxglove_port` is given and installed)."""
     outputs: dict[str, Any] = {"recorder": {"type": "mcap", "directory": str(record_dir)}}
     if zenoh:
         outputs["zenoh"] = {"type": "zenoh"}
+    if foxglove_port and "foxglove" in registry.names("outputs"):
+        outputs["foxglove"] = {"type": "foxglove", "host": "127.0.0.1", "port": foxglove_port}
     return {
         "edged": {"vessel_id": vessel_id},
         "inputs": {
@@ -57,6 +61,13 @@ def demo_config(
         "estimators": {name: {"type": name} for name in registry.names("estimators")},
         "outputs": outputs,
     }
+
+
+def _foxglove_line(cfg: Any) -> str:
+    fox = cfg.outputs.get("foxglove")
+    if fox is None:
+        return "off"
+    return f"ws://127.0.0.1:{fox.port} live (open deploy/foxglove-layout.json in Foxglove)"
 
 
 def _status_line(rt: Runtime) -> str:
@@ -160,7 +171,8 @@ def main(args: argparse.Namespace, registry: Registry | None = None, out: TextIO
     udp_port = free_udp_port()
     channel = f"edged-demo-{os.getpid()}"
     data = demo_config(
-        registry, record_dir, udp_port, channel, zenoh=not args.no_zenoh, vessel_id=args.vessel_id or "demo"
+        registry, record_dir, udp_port, channel, zenoh=not args.no_zenoh, vessel_id=args.vessel_id or "demo",
+        foxglove_port=args.foxglove_port,
     )
     try:
         cfg = parse_config(data, registry, file="<demo>")
@@ -180,6 +192,7 @@ def main(args: argparse.Namespace, registry: Registry | None = None, out: TextIO
         f"  estimators: {estimators}\n"
         f"  recording:  {record_dir}\n"
         f"  zenoh:      {'off' if args.no_zenoh else f'vessel/{cfg.edged.vessel_id}/** on this machine only'}\n"
+        f"  foxglove:   {_foxglove_line(cfg)}\n"
         f"  {'stops after ' + format(args.duration, 'g') + ' s' if args.duration else 'Ctrl-C stops it'}",
         file=out,
         flush=True,
@@ -244,6 +257,8 @@ def arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--duration", type=positive_seconds, default=None, metavar="S", help="stop after S seconds (default: until Ctrl-C)")
     p.add_argument("--record-dir", metavar="DIR", help="where to record (default ./edged-demo-<UTC start>/)")
     p.add_argument("--no-zenoh", action="store_true", help="do not publish over zenoh")
+    p.add_argument("--foxglove-port", type=int, default=8765, metavar="PORT",
+                   help="serve a live Foxglove view on 127.0.0.1:PORT (default 8765; 0: off)")
     zenoh_options(p)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import socket
 
 from mcap.reader import make_reader
 
@@ -11,16 +12,24 @@ from edged.cli import build_parser
 from edged_demo.command import main
 
 
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def test_demo_reads_both_inputs_and_records(tmp_path):
     # 6 s: the manoeuvre filter starts from 3 s of fixes (its init_window), and a 3-s
     # demo on a loaded machine could end before its first estimate.
+    port = _free_port()
     args = build_parser().parse_args(
-        ["demo", "--duration", "6", "--no-zenoh", "--record-dir", str(tmp_path / "rec")]
+        ["demo", "--duration", "6", "--no-zenoh", "--record-dir", str(tmp_path / "rec"), "--foxglove-port", str(port)]
     )
     out = io.StringIO()
     assert main(args, out=out) == 0
     text = out.getvalue()
     assert "recording:" in text and str(tmp_path / "rec") in text
+    assert f"foxglove:   ws://127.0.0.1:{port} live" in text
     files = sorted((tmp_path / "rec").glob("edged-*.mcap"))
     assert files, text
     topics: dict[str, int] = {}
@@ -35,6 +44,8 @@ def test_demo_reads_both_inputs_and_records(tmp_path):
     assert any(t.startswith("/meas/heading/") for t in topics), topics
     assert any(t.startswith("/meas/position/") for t in topics), topics
     assert set(health["inputs"]) == {"nmea", "can0"}
+    fox = health["outputs"]["foxglove"]  # the live Foxglove view served all along
+    assert fox["ok"] and fox["info"]["url"] == f"ws://127.0.0.1:{port}", fox
     # every estimator has its inputs: the draft marks too
     assert any(t.startswith("/meas/draft/") for t in topics), topics
     assert {"/est/stw", "/est/manoeuvre", "/est/draft"} <= set(topics), topics
@@ -44,7 +55,7 @@ def test_the_demo_has_a_mean_draft_trim_and_list_from_its_fifth_second(tmp_path)
     """Issue 31: the marks' rhythm was taken from the first frames' 0.1–1.8 ms, every
     mark was out for `gaps` for ~20 s, and a 30-s demo published no mean draft."""
     args = build_parser().parse_args(
-        ["demo", "--duration", "10", "--no-zenoh", "--record-dir", str(tmp_path / "rec")]
+        ["demo", "--duration", "10", "--no-zenoh", "--record-dir", str(tmp_path / "rec"), "--foxglove-port", "0"]
     )
     assert main(args, out=io.StringIO()) == 0
     files = sorted((tmp_path / "rec").glob("edged-*.mcap"))

@@ -61,7 +61,7 @@ def test_the_demo_publishes_every_estimate_over_zenoh_and_prints_plain_lines(tmp
         sub = session.declare_subscriber(f"vessel/{VESSEL}/est/*", on_sample)
         args = build_parser().parse_args(
             ["demo", "--duration", "6", "--record-dir", str(tmp_path / "rec"), "--vessel-id", VESSEL,
-             "--zenoh-config", str(zcfg)]
+             "--zenoh-config", str(zcfg), "--foxglove-port", "0"]
         )
         out = io.StringIO()
         assert main(args, out=out) == 0
