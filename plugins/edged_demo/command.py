@@ -67,7 +67,8 @@ def _foxglove_line(cfg: Any) -> str:
     fox = cfg.outputs.get("foxglove")
     if fox is None:
         return "off"
-    return f"ws://127.0.0.1:{fox.port} live (open deploy/foxglove-layout.json in Foxglove)"
+    return (f"ws://127.0.0.1:{fox.port} live (a layout for the demo's sources: "
+            "python -m edged_foxglove.layout --gnss nmea --log nmea > demo-layout.json)")
 
 
 def _status_line(rt: Runtime) -> str:

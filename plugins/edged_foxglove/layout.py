@@ -13,10 +13,12 @@ the manoeuvring estimate's position: a user script in the layout turns
 for live data and recordings alike.
 
     python -m edged_foxglove.layout > deploy/foxglove-layout.json
+    python -m edged_foxglove.layout --gnss nmea --log nmea > demo-layout.json  # `edged demo`'s
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
@@ -25,7 +27,8 @@ from edged.estimates import ESTIMATE_KINDS
 
 __all__ = ["ESTIMATE_LOCATION", "build", "layout_json"]
 
-GNSS = "/location/gnss1"
+#: The sources the layout names by default: `deploy/edged.toml`'s GNSS and log.
+GNSS_SOURCE, LOG_SOURCE = "gnss1", "doppler"
 #: The user script's output: the manoeuvring estimate's position as a LocationFix.
 ESTIMATE_LOCATION = "/foxglove_script/est_manoeuvre_location"
 
@@ -71,24 +74,25 @@ def _plot(title: str, series: list[fl.PlotSeries], y_label: str) -> fl.PlotPanel
     )
 
 
-def _map() -> fl.MapPanel:
+def _map(gnss: str) -> fl.MapPanel:
+    fix = f"/location/{gnss}"
     return fl.MapPanel(
         title="Position: GNSS and estimate",
         config=fl.MapConfig(
-            follow_topic=GNSS,
+            follow_topic=fix,
             layer="map",
             zoom_level=14,
-            topic_colors={GNSS: "#1f77b4", ESTIMATE_LOCATION: "#d62728"},
+            topic_colors={fix: "#1f77b4", ESTIMATE_LOCATION: "#d62728"},
         ),
     )
 
 
-def _speeds() -> fl.PlotPanel:
+def _speeds(gnss: str, log: str) -> fl.PlotPanel:
     return _plot("STW: estimate, log, SOG", [
         _series("/est/stw.stw", "STW estimate"),
-        _series("/meas/water_speed/doppler.stw_long", "Doppler log (along)"),
+        _series(f"/meas/water_speed/{log}.stw_long", "Doppler log (along)"),
         _series("/est/stw.sog", "SOG (filtered)"),
-        _series("/meas/velocity_ground/gnss1.sog", "SOG (GNSS)"),
+        _series(f"/meas/velocity_ground/{gnss}.sog", "SOG (GNSS)"),
     ], "m/s")
 
 
@@ -115,15 +119,16 @@ def _health() -> fl.RawMessagesPanel:
     return fl.RawMessagesPanel(title="Health", config=fl.RawMessagesConfig(topic_path="/health", expansion="none"))
 
 
-def build() -> fl.Layout:
-    """The layout: the map left; speeds, manoeuvre and drafts stacked right; health."""
+def build(gnss: str = GNSS_SOURCE, log: str = LOG_SOURCE) -> fl.Layout:
+    """The layout: the map left; speeds, manoeuvre and drafts stacked right; health.
+    `gnss` and `log` are the sources of the GNSS fix and the Doppler log."""
     right = fl.SplitContainer(direction="column", items=[
-        fl.SplitItem(content=_speeds()),
+        fl.SplitItem(content=_speeds(gnss, log)),
         fl.SplitItem(content=_manoeuvre()),
         fl.SplitItem(content=_drafts()),
     ])
     left = fl.SplitContainer(direction="column", items=[
-        fl.SplitItem(proportion=2, content=_map()),
+        fl.SplitItem(proportion=2, content=_map(gnss)),
         fl.SplitItem(proportion=1, content=_health()),
     ])
     return fl.Layout(
@@ -136,10 +141,22 @@ def build() -> fl.Layout:
     )
 
 
-def layout_json() -> str:
+def layout_json(gnss: str = GNSS_SOURCE, log: str = LOG_SOURCE) -> str:
     """The layout file's text: indented, keys in the SDK's order, a final newline."""
-    return json.dumps(json.loads(build().to_json()), indent=2, ensure_ascii=False) + "\n"
+    return json.dumps(json.loads(build(gnss, log).to_json()), indent=2, ensure_ascii=False) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m edged_foxglove.layout", description="write edged's Foxglove layout")
+    ap.add_argument("--gnss", default=GNSS_SOURCE, help=f"source of the GNSS fix (default {GNSS_SOURCE})")
+    ap.add_argument("--log", default=LOG_SOURCE, help=f"source of the Doppler log (default {LOG_SOURCE})")
+    a = ap.parse_args(argv)
+    for name in (a.gnss, a.log):
+        if not name or any(c in name for c in "/.\"\\ "):
+            ap.error(f"{name!r} is not a source name (an input's, as in /meas/<kind>/<source>)")
+    sys.stdout.write(layout_json(a.gnss, a.log))
+    return 0
 
 
 if __name__ == "__main__":
-    sys.stdout.write(layout_json())
+    raise SystemExit(main())

@@ -137,3 +137,17 @@ def test_a_stale_name_would_be_caught():
     with pytest.raises(AssertionError):
         _field(channels["/est/stw"], ["stw_estimate"], "/est/stw.stw_estimate")
     assert "/meas/water_speed/log1" not in channels and "/location/doppler" in channels
+
+
+def test_a_layout_for_other_source_names(capsys: pytest.CaptureFixture[str]) -> None:
+    """`edged demo` names its GNSS and log `nmea`: the layout is made for those names."""
+    from edged_foxglove.layout import main
+
+    assert main(["--gnss", "nmea", "--log", "nmea"]) == 0
+    text = capsys.readouterr().out
+    assert '"/location/nmea"' in text and "/meas/velocity_ground/nmea.sog" in text
+    assert "/meas/water_speed/nmea.stw_long" in text and "gnss1" not in text and "doppler" not in text
+    json.loads(text)
+    with pytest.raises(SystemExit) as exc:
+        main(["--gnss", "gnss/1"])
+    assert exc.value.code == 2 and "is not a source name" in capsys.readouterr().err
