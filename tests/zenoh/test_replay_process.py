@@ -11,7 +11,7 @@ import pytest
 from edged.registry import Registry
 
 T0 = 1_732_350_000.0
-N = 30  # 3 s of a 10 Hz gyro
+N = 60  # 6 s of a 10 Hz gyro: time for a query and, under load, another
 
 
 def _nmea(body: str) -> str:
@@ -40,11 +40,19 @@ def test_replay_publishes_measurements_answers_queries_and_holds_liveliness(tmp_
     )
     assert peer.expect(lambda s: s.startswith("alive ")) == "alive put vessel/rp1/alive"
     first = json.loads(peer.expect(lambda s: s.startswith("sample vessel/rp1/meas/heading/gyro ")).split(" ", 3)[3])
-    # Mid-voyage, the vessel's queryable answers with its latest heading.
-    peer.send("get vessel/rp1/**")
-    reply = peer.expect(lambda s: s.startswith("reply vessel/rp1/meas/heading/gyro "))
+    # Mid-voyage, the vessel's queryable answers with its latest heading. A get is best
+    # effort: on a loaded machine one came back empty (its reply was counted sent by
+    # the replay), so an empty answer is asked again while the voyage lasts.
+    reply = None
+    for _ in range(3):
+        peer.send("get vessel/rp1/**")
+        line = peer.expect(lambda s: s.startswith("reply vessel/rp1/meas/heading/gyro ") or s == "end")
+        if line != "end":
+            reply = line
+            peer.expect(lambda s: s == "end")
+            break
+    assert reply is not None, "three queries mid-voyage, no answer with the heading"
     assert json.loads(reply.split(" ", 2)[2])["t"] >= first["t"]
-    peer.expect(lambda s: s == "end")
     # Everything after the link came up arrives, the log's last record included ...
     t_last = round(T0 + (N - 1) * 0.1, 3)
     # ... and as the replay ends, its liveliness token goes with its session. The DELETE
