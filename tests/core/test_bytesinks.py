@@ -142,3 +142,15 @@ async def test_a_tcp_port_in_use_is_retried_and_counted() -> None:
 def test_bad_transport_settings_are_refused(kw: dict, words: str) -> None:
     with pytest.raises(ValidationError, match=words):
         TransportSettings(**kw)
+
+
+async def test_udp_broadcast_is_allowed_only_when_configured() -> None:
+    """A broadcast address (192.168.1.255) needs SO_BROADCAST, or every send fails."""
+    for broadcast in (True, False):
+        h = health()
+        sink = make_sink(settings(transport="udp", port=9, broadcast=broadcast), h)
+        await sink.open()
+        await wait_for(lambda: sink.up, WAIT)
+        sock = sink._transport.get_extra_info("socket")  # type: ignore[attr-defined]
+        assert bool(sock.getsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST)) is broadcast
+        await sink.close()
