@@ -81,6 +81,9 @@ class BridgeOutput(OutputPlugin):
 
     Config: ClassVar[type[BridgeOutputConfig]] = BridgeOutputConfig
     messages: ClassVar[tuple[Message, ...]] = ()
+    #: A message combines estimators (VHW's heading beside its STW): in a replay they
+    #: come in the order of the records they were made from (`OutputPlugin.ordered`).
+    ordered: ClassVar[bool] = True
 
     def __init__(self, config: BridgeOutputConfig, ctx: PluginContext) -> None:
         super().__init__(config, ctx)

@@ -8,12 +8,10 @@ stale (its inputs stopped, `stale`), still converging, missing, or more than
 arrived last: a heading beside an STW must be of about the same moment), and a draft
 mark whose sensor is out (`ok` false). A number sent is never a stale number.
 
-The age is judged against the estimate that arrived, not the newest ever seen:
-estimators in processes of their own run apart (in a fast replay one is seconds of
-data ahead of another), and a message made of one estimator's values alone (HDT,
-127250) is then the same whatever the other's pace. A message that combines two
-(VHW's heading beside its STW) takes the other's latest within `max_age`, which in a
-replay depends on how far apart the two ran.
+The age is judged against the estimate that arrived, not the newest ever seen. In
+a replay the bridge outputs take the estimates in the order of the records they were
+made from (`OutputPlugin.ordered`), so a message that combines two estimators (VHW's
+heading beside its STW) is what live sent, however far apart their processes ran.
 """
 
 from __future__ import annotations

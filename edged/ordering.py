@@ -24,7 +24,7 @@ from typing import Any, Iterable
 
 from .router import BoundedQueue, Router
 
-__all__ = ["InputOrder"]
+__all__ = ["InputOrder", "OrderedEstimates"]
 
 #: Producer rank of router records (measurements, health): before every estimate.
 _MEASUREMENT_RANK = -1
@@ -126,3 +126,51 @@ class InputOrder:
         else:
             pending.extend(new)
             self.pending = collections.deque(sorted(pending))
+
+
+class OrderedEstimates:
+    """An output's estimates in the order of the records they were made from, each
+    released once every worker it takes estimates from is done up to it.
+
+    Workers in processes of their own run apart, seconds of data apart in a fast
+    replay; an output that puts several estimators' values side by side (a bridge
+    output: the heading beside the STW) would then combine what live never did.
+    Ordered, it sees them as live did, whatever the workers' pace. `get_batch` stands
+    in for the queue's: what is released, or [] when the queue was woken.
+    """
+
+    def __init__(self, router: Router, queue: BoundedQueue) -> None:
+        self.queue = queue
+        self.order = InputOrder(router, queue)
+
+    def link(self, upstream: list[InputOrder], names: list[str]) -> None:
+        """The workers whose estimates the output takes (their orders and names)."""
+        self.order.link(upstream, names, rank=len(upstream))
+
+    def _release(self, bound: int, max_items: int) -> list[Any]:
+        pending = self.order.pending
+        out: list[Any] = []
+        while pending and pending[0][0] <= bound and len(out) < max_items:
+            out.append(pending.popleft()[3])
+        return out
+
+    async def get_batch(self, max_items: int = 1024) -> list[Any]:
+        order = self.order
+        while True:
+            out = self._release(order.bound(), max_items)
+            if out:
+                return out
+            items = await self.queue.get_batch(max_items)
+            if not items:
+                return []  # woken: the output host has something else to see to
+            order.take(items)
+
+    def drain_nowait(self) -> list[Any]:
+        """Everything queued and held, in order (the stop: nothing more will come)."""
+        self.order.take(self.queue.drain_nowait())
+        out = [item[3] for item in self.order.pending]
+        self.order.pending.clear()
+        return out
+
+    def __len__(self) -> int:
+        return len(self.queue) + len(self.order.pending)

@@ -16,7 +16,8 @@ from .clock import Clock
 from .health import ComponentHealth
 from .outputproc import place_output
 from .plugin import OutputPlugin
-from .router import Router
+from .ordering import OrderedEstimates
+from .router import BoundedQueue, Router
 
 __all__ = ["OutputHost"]
 
@@ -27,7 +28,7 @@ class OutputHost:
     "process"`), through which every call of the plugin's contract goes."""
 
     def __init__(self, name: str, plugin: OutputPlugin, router: Router, health: ComponentHealth,
-                 clock: Clock | None = None) -> None:
+                 clock: Clock | None = None, *, ordered: bool = False) -> None:
         self.name = name
         self.clock = clock or plugin.ctx.clock
         self.plugin = place_output(plugin, name, health, self.clock)
@@ -44,7 +45,19 @@ class OutputHost:
             health=health,
             preferred_only=False,
             reorder_window=None,
+            sequenced=ordered,
         )
+        #: Where batches are taken from: the queue, or (`ordered`: a replay of an output
+        #: that combines estimators, `OutputPlugin.ordered`) the estimates put in the
+        #: order of the records they were made from (`link` names the workers).
+        self.source: BoundedQueue | OrderedEstimates = (
+            OrderedEstimates(router, self.sub.queue) if ordered else self.sub.queue)
+
+    def link(self, workers: list[Any]) -> None:
+        """(ordered) The worker hosts whose estimates it takes: each batch holds only
+        what every one of them is done with."""
+        if isinstance(self.source, OrderedEstimates):
+            self.source.link([w.order for w in workers], [w.name for w in workers])
 
     @property
     def up(self) -> bool:
@@ -64,6 +77,7 @@ class OutputHost:
         await place.open()
         self.opened = True
         queue = self.sub.queue
+        source = self.source
         clock = self.clock
         count = self.health.count
         inflight: deque[tuple[asyncio.Future[Any], int]] = deque()
@@ -83,7 +97,7 @@ class OutputHost:
                     self.blocked = False
                 self._progressed()
                 continue
-            batch = await queue.get_batch(place.batch)
+            batch = await source.get_batch(place.batch)
             if not batch:
                 continue  # woken: a write failed
             self._progressed()
@@ -154,11 +168,11 @@ class OutputHost:
         if not self.opened and await self.plugin.started():
             self.opened = True  # stopped while its process was starting: it takes the queue
         if not self.opened:
-            rest = self.sub.queue.drain_nowait()
+            rest = self.source.drain_nowait()
             if rest:
                 self.health.count("dropped.not_open", len(rest))
         if self.opened:
-            rest = self.sub.queue.drain_nowait()
+            rest = self.source.drain_nowait()
             if rest:
                 try:
                     self.plugin.write(rest)

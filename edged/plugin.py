@@ -374,6 +374,12 @@ class OutputPlugin(Plugin):
     #: Route keys this output wants; None = everything but `exclude_keys`.
     keys: ClassVar[frozenset[str] | None] = None
     exclude_keys: ClassVar[frozenset[str]] = frozenset()
+    #: In a replay, take estimates in the order of the records they were made from
+    #: (`edged.ordering.OrderedEstimates`), not in the order the workers' processes
+    #: delivered them, for an output that puts several estimators' values side by
+    #: side (the bridges): it then sends what live sent, whatever the workers' pace.
+    #: Live, estimates go out as they come (a worker that lags never holds the others).
+    ordered: ClassVar[bool] = False
 
     @classmethod
     def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:

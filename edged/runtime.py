@@ -127,7 +127,8 @@ class Runtime:
         for name, c in cfg.outputs.items():
             if c.enabled:
                 plugin, health, _ = self._make("outputs", name, c)
-                self.outputs.append(OutputHost(name, plugin, self.router, health, self.clock))
+                ordered = self.replay and plugin.ordered
+                self.outputs.append(OutputHost(name, plugin, self.router, health, self.clock, ordered=ordered))
         #: What the outputs' own traffic carries: every decoder refuses it.
         self.own_marks = own_marks_of((type(o.plugin.plugin), o.plugin.plugin.config) for o in self.outputs)
         hosts: dict[str, WorkerHost] = {}
@@ -139,6 +140,9 @@ class Runtime:
                 except Exception as exc:
                     raise PluginBuildError(f"estimators.{name}: {type(exc).__name__}: {exc}") from exc
         self.workers = self._link_workers(hosts)
+        for out in self.outputs:
+            keys = out.plugin.plugin.keys or frozenset()
+            out.link([w for w in self.workers if f"est/{w.name}" in keys])
         if not self.replay:
             for name, c in cfg.inputs.items():
                 if c.enabled:

@@ -73,18 +73,20 @@ class UdpCollector:
         return [pynmea2.parse(line, check=True) for d in self.data for line in d.decode("ascii").splitlines()]
 
 
-@pytest.fixture(scope="module")
-def voyage(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    work = tmp_path_factory.mktemp("bridge")
-    assert main(["sim", "demo", "--out", str(work / "sim"), "--duration", "120", "--seed", "3"]) == 0
+def _replay(work: Path, sim: Path, workers: str) -> dict[str, Any]:
+    """Replay the simulated voyage with both estimators in `workers` ("process", their
+    default, or "loop"): what the UDP socket and the bus got, and the recording."""
     udp = UdpCollector()
     channel = f"bridge-{uuid.uuid4().hex}"
     bus = can.Bus(interface="virtual", channel=channel)
-    (work / "edged.toml").write_text(f"""
+    cfg = work / f"edged-{workers}.toml"
+    cfg.write_text(f"""
 [estimators.stw]
 type = "stw"
+worker = "{workers}"
 [estimators.manoeuvre]
 type = "manoeuvre"
+worker = "{workers}"
 [outputs.nmea]
 type = "nmea0183"
 transport = "udp"
@@ -96,10 +98,10 @@ interface = "virtual"
 channel = "{channel}"
 rates = {{ 127250 = 100, 127251 = 100, 128259 = 100, 130577 = 100 }}
 """)
-    record = work / "run.mcap"
+    record = work / f"run-{workers}.mcap"
     try:
-        rc = main(["replay", "-c", str(work / "edged.toml"), "--no-zenoh", "--no-progress", "--record", str(record),
-                   str(work / "sim" / "nmea.log"), str(work / "sim" / "can.log")])
+        rc = main(["replay", "-c", str(cfg), "--no-zenoh", "--no-progress", "--record", str(record),
+                   str(sim / "nmea.log"), str(sim / "can.log")])
         frames = []
         while (m := bus.recv(timeout=0)) is not None:
             frames.append(m)
@@ -112,7 +114,20 @@ rates = {{ 127250 = 100, 127251 = 100, 128259 = 100, 130577 = 100 }}
         d = decoder.decode(f)
         if d is not None and d.source != 254:
             n2k.setdefault(d.PGN, []).append({x.id: x.value for x in d.fields})
-    return {"est": _estimates(record), "nmea": udp.finish(), "n2k": n2k}
+    raw = list(udp.data)
+    return {"est": _estimates(record), "nmea": udp.finish(), "nmea_bytes": raw, "n2k": n2k}
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    work = tmp_path_factory.mktemp("bridge")
+    assert main(["sim", "demo", "--out", str(work / "sim"), "--duration", "120", "--seed", "3"]) == 0
+    return work, work / "sim"
+
+
+@pytest.fixture(scope="module")
+def voyage(simulated: tuple[Path, Path]) -> dict[str, Any]:
+    return _replay(*simulated, "process")
 
 
 def _same(sent: list[float | None], want: list[float | None], tol: float) -> None:
@@ -167,3 +182,16 @@ def test_nmea2000_pgns_are_the_recorded_estimates(voyage: dict[str, Any]) -> Non
     assert len(direction) == len(water)
     _same([m["drift"] for m in direction], [_valid(e, "current") for e in stw[len(stw) - len(direction):]], SPEED)
     _same([m["set"] for m in direction], [_valid(e, "current_set") for e in stw[len(stw) - len(direction):]], ANGLE)
+
+
+def test_what_combines_two_estimators_is_the_same_whatever_their_pace(
+        voyage: dict[str, Any], simulated: tuple[Path, Path]) -> None:
+    """VHW goes with each STW estimate, the manoeuvring state's latest heading beside
+    it. In processes of their own the two estimators run seconds of data apart in a
+    replay; in the loop they do not. The output takes their estimates in the order of
+    the records they were made from, so it sends the same sentences either way."""
+    again = _replay(*simulated, "loop")
+    assert again["est"] == voyage["est"]
+    sent = [s for s in voyage["nmea"] if s.sentence_type == "VHW"]
+    assert sum(1 for s in sent if _field(s.heading_true) is not None) > len(sent) // 2
+    assert b"".join(again["nmea_bytes"]) == b"".join(voyage["nmea_bytes"])
