@@ -62,6 +62,9 @@ def software_version() -> str:
         return "unknown"
 
 
+#: Seconds (of clock time) between two answers to one requester for one PGN.
+ANSWER_INTERVAL = 1.0
+
 class Citizen:
     """Claims and keeps an address, answers requests, beats; `send(frame)` puts a
     frame on the bus as it is (its own source address)."""
@@ -78,6 +81,9 @@ class Citizen:
         self._next_beat: float | None = None
         self._beat_from: int | None = None
         self._version = software_version()
+        #: (requester, PGN) -> when it was last answered (clock s): a flood of requests
+        #: gets one answer a second, not a bus full of product information.
+        self._answered: dict[tuple[int, int], float] = {}
         self._info()
 
     @property
@@ -130,7 +136,22 @@ class Citizen:
         elif pgn == PGN_REQUEST and len(data) >= 3:
             addr = self.address
             if dst == GLOBAL or (addr is not None and dst == addr):
-                self._request(src, dst, data[0] | data[1] << 8 | data[2] << 16)
+                pgn = data[0] | data[1] << 8 | data[2] << 16
+                if pgn != PGN_CLAIM and self._too_soon(now, src, pgn):
+                    return
+                self._request(src, dst, pgn)
+
+    def _too_soon(self, now: float, src: int, pgn: int) -> bool:
+        """Whether `src` asked for `pgn` less than ANSWER_INTERVAL ago (counted
+        `rejected.request_flood`); a claim request is always answered (one frame)."""
+        last = self._answered.get((src, pgn))
+        if last is not None and 0.0 <= now - last < ANSWER_INTERVAL:
+            self._health.count("rejected.request_flood")
+            return True
+        if len(self._answered) >= 1024:  # requesters come and go: forget them all
+            self._answered.clear()
+        self._answered[(src, pgn)] = now
+        return False
 
     def _request(self, src: int, dst: int, pgn: int) -> None:
         addr = self.address

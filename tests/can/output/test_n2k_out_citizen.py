@@ -13,6 +13,8 @@ from edged_can.output.citizen import name_of
 from edged_can.output.marks import name_hex
 from edged_can.output.plugin import Nmea2000Output
 
+from waiting import wait_for
+
 from .conftest import T0, fields, man_est, split
 
 
@@ -159,3 +161,19 @@ async def test_heartbeat_every_interval_of_clock_time(make_rig: Any) -> None:
     beat = await rig.peer.message(126993, src=addr)
     assert beat.priority == 7 and fields(beat)["dataTransmitOffset"] == 30.0
     assert fields(beat)["sequenceCounter"] == 1 and rig.health.counters["heartbeats"] == 2
+
+
+async def test_a_flood_of_requests_gets_one_answer_a_second(make_rig: Any) -> None:
+    """A node asking for product information in a loop would fill the bus with our
+    fast-packets (20 frames each): it is answered once a second, the rest counted."""
+    rig = await make_rig()
+    addr = await rig.claimed()
+    for _ in range(50):
+        rig.peer.send(6, 59904, 10, addr, request(126996))
+    await rig.peer.message(126996, src=addr)
+    await wait_for(lambda: rig.health.counters.get("rejected.request_flood", 0) == 49)
+    assert rig.health.counters["requests_answered"] == 1
+    rig.clock.step(1.0)  # a second later it is answered again
+    rig.peer.send(6, 59904, 10, addr, request(126996))
+    await rig.peer.message(126996, src=addr)
+    assert rig.health.counters["requests_answered"] == 2
