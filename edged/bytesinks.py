@@ -252,6 +252,9 @@ class SerialSink(ByteSink):
     def __init__(self, settings: TransportSettings, health: ComponentHealth) -> None:
         super().__init__(settings, health, f"serial {settings.device}")
         self._writer: asyncio.StreamWriter | None = None
+        #: At most a second of the line's bytes wait (10 bits a byte): at 4800 Bd a
+        #: heading must not reach the autopilot minutes late behind a backlog.
+        self.line_buffer = min(settings.client_buffer, max(64, settings.baudrate // 10))
 
     async def _keep(self) -> None:
         s = self.settings
@@ -278,7 +281,7 @@ class SerialSink(ByteSink):
         if w is None or w.transport.is_closing():
             self.health.count("unsent.link_down")
             return False
-        if w.transport.get_write_buffer_size() + len(data) > self.settings.client_buffer:
+        if w.transport.get_write_buffer_size() + len(data) > self.line_buffer:
             self.health.count("dropped.slow_client")  # the line is slower than the sentences
             return False
         try:

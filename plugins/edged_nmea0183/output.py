@@ -58,6 +58,10 @@ class Nmea0183OutputConfig(BridgeOutputConfig, TransportSettings):
         return v
 
 
+#: About how long each sentence is, line end included (XDR: its three sentences), to
+#: tell an operator when the configured rates do not fit a serial line.
+TYPICAL_LENGTH = {"VHW": 38, "VBW": 44, "VDR": 29, "HDT": 19, "ROT": 19, "XDR": 190}
+
 _STW, _MAN, _DRAFT = frozenset({"stw"}), frozenset({"manoeuvre"}), frozenset({"draft"})
 
 
@@ -81,6 +85,17 @@ class Nmea0183Output(TextBridgeOutput):
     @classmethod
     def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:
         return {OWN_TALKER: frozenset({config.talker})}
+
+    async def open(self) -> None:
+        await super().open()
+        cfg = self.config
+        if cfg.transport == "serial":
+            need = sum(self.hz[name] * TYPICAL_LENGTH[name] for name in self.hz)
+            line = cfg.baudrate / 10.0
+            if need > line:
+                self.ctx.health.error(
+                    f"the sentences need about {need:.0f} characters a second and the line at {cfg.baudrate} Bd "
+                    f"carries {line:.0f}: lower `rates` or raise `baudrate` (what does not fit is dropped)")
 
     def encode(self, name: str) -> bytes:
         return SENTENCES[name](self.view, self.config.talker)

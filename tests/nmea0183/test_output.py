@@ -174,3 +174,24 @@ def test_records_of_other_kinds_and_names_are_ignored() -> None:
 
     out.write([Measurement("heading", "gyro", T0, {"heading": 1.0}), Estimate("other", "x", T0, {"stw": 3.0}, "stw")])
     assert sink.sent == [] and c.health.counters.get("sent", 0) == 0
+
+
+async def test_rates_a_serial_line_cannot_carry_are_named_at_open() -> None:
+    """The defaults need ~680 characters a second (HDT and ROT at 10 Hz); a 4800 Bd
+    line carries 480: the operator is told, and a second of backlog at most waits."""
+    c = Ctx()
+    out = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183", transport="serial", device="/dev/edged-none"), c.ctx)
+    await out.open()
+    try:
+        assert "carries 480: lower `rates` or raise `baudrate`" in (c.health.last_error or "")
+        assert out.sink.line_buffer == 480  # type: ignore[union-attr]
+    finally:
+        await out.close()
+    c2 = Ctx()
+    said: list[str] = []
+    c2.health.error = said.append  # type: ignore[method-assign]
+    fast = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183", transport="serial", device="/dev/edged-none",
+                                               baudrate=38400), c2.ctx)
+    await fast.open()
+    await fast.close()
+    assert not any("lower `rates`" in m for m in said)
