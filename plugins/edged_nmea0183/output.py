@@ -88,14 +88,22 @@ class Nmea0183Output(TextBridgeOutput):
 
     async def open(self) -> None:
         await super().open()
+        overload = self.serial_overload()
+        if overload:
+            self.ctx.health.error(overload)
+
+    def serial_overload(self) -> str | None:
+        """What to tell the operator when the rates need more than the serial line
+        carries (10 bits a character); None when they fit or there is no line."""
         cfg = self.config
-        if cfg.transport == "serial":
-            need = sum(self.hz[name] * TYPICAL_LENGTH[name] for name in self.hz)
-            line = cfg.baudrate / 10.0
-            if need > line:
-                self.ctx.health.error(
-                    f"the sentences need about {need:.0f} characters a second and the line at {cfg.baudrate} Bd "
-                    f"carries {line:.0f}: lower `rates` or raise `baudrate` (what does not fit is dropped)")
+        if cfg.transport != "serial":
+            return None
+        need = sum(self.hz[name] * TYPICAL_LENGTH[name] for name in self.hz)
+        line = cfg.baudrate / 10.0
+        if need <= line:
+            return None
+        return (f"the sentences need about {need:.0f} characters a second and the line at {cfg.baudrate} Bd "
+                f"carries {line:.0f}: lower `rates` or raise `baudrate` (what does not fit is dropped)")
 
     def encode(self, name: str) -> bytes:
         return SENTENCES[name](self.view, self.config.talker)
