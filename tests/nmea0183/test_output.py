@@ -192,4 +192,4 @@ async def test_rates_a_serial_line_cannot_carry_are_named_at_open() -> None:
     assert fast.serial_overload() is None
     slowed = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183", transport="serial", device="/dev/edged-none",
                                                  rates={"HDT": 2, "ROT": 1}), Ctx().ctx)
-    assert slowed.serial_overload() is None  # about 440 characters a second: it fits
+    assert slowed.serial_overload() is None  # about 360 characters a second: it fits
