@@ -88,7 +88,7 @@ class ByteSink:
     def __init__(self, settings: TransportSettings, health: ComponentHealth, where: str) -> None:
         self.settings = settings
         self.health = health
-        self.link = Link(health, settings.backoff(), where=where, info_key="link")
+        self.link: Link[Any] = Link(health, settings.backoff(), where=where, info_key="link")
         self._task: asyncio.Task[None] | None = None
 
     async def open(self) -> None:
