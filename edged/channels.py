@@ -157,11 +157,44 @@ def _encode_measurement(m: Measurement) -> Iterable[Out]:
     return (out,)
 
 
+def _finite(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _estimate_fix(e: Estimate) -> Out | None:
+    """An estimate's position (`lat`, `lon`) as a LocationFix on `/location/est/<name>`,
+    for the map, with its 1-σ north and east (`std.x`, `std.y`) as the diagonal of the
+    ENU covariance; None without a position, or when the estimate is stale."""
+    v = e.values
+    lat, lon = v.get("lat"), v.get("lon")
+    if not (_finite(lat) and _finite(lon)) or v.get("stale"):
+        return None
+    std = v.get("std")
+    sn, se = (std.get("x"), std.get("y")) if isinstance(std, dict) else (None, None)
+    known = _finite(sn) and _finite(se)
+    ns = to_ns(e.t)
+    return (
+        f"/location/est/{e.name}",
+        LOCATION_FIX,
+        {
+            "timestamp": {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000},
+            "frame_id": e.name,
+            "latitude": lat,
+            "longitude": lon,
+            "altitude": 0.0,
+            "position_covariance": [se * se, 0.0, 0.0, 0.0, sn * sn, 0.0, 0.0, 0.0, 0.0] if known else [0.0] * 9,
+            "position_covariance_type": 2 if known else 0,  # 2: diagonal known
+        },
+    )
+
+
 def _encode_estimate(e: Estimate) -> Iterable[Out]:
     # The core's JSON of the estimate (the same bytes Zenoh publishes); the channel's
     # schema is its kind's, or the open one for a kind this version does not define.
     schema = f"edged.est.{e.kind}" if e.kind in ESTIMATE_KINDS else "edged.est"
-    return ((f"/est/{e.name}", schema, record_json(e)),)
+    out = (f"/est/{e.name}", schema, record_json(e))
+    fix = _estimate_fix(e)
+    return (out,) if fix is None else (out, fix)
 
 
 def _encode_health(h: HealthRecord) -> Iterable[Out]:

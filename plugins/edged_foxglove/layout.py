@@ -7,10 +7,9 @@ the same channels. It names the channels of the example configuration
 `manoeuvre`, `draft`); a test checks that every topic and field it names is one the
 recorder and this output make for that configuration, so it cannot rot.
 
-The map shows the GNSS fix (`/location/gnss1`, a LocationFix the recording has) and
-the manoeuvring estimate's position: a user script in the layout turns
-`/est/manoeuvre` (lat, lon) into a LocationFix on `ESTIMATE_LOCATION`, in the browser,
-for live data and recordings alike.
+The map shows the GNSS fix (`/location/gnss1`) and the manoeuvring estimate's
+position with its 1-σ (`/location/est/manoeuvre`): both are LocationFix channels the
+recording and the live server have.
 
     python -m edged_foxglove.layout > deploy/foxglove-layout.json
     python -m edged_foxglove.layout --gnss nmea --log nmea > demo-layout.json  # `edged demo`'s
@@ -29,37 +28,9 @@ __all__ = ["ESTIMATE_LOCATION", "build", "layout_json"]
 
 #: The sources the layout names by default: `deploy/edged.toml`'s GNSS and log.
 GNSS_SOURCE, LOG_SOURCE = "gnss1", "doppler"
-#: The user script's output: the manoeuvring estimate's position as a LocationFix.
-ESTIMATE_LOCATION = "/foxglove_script/est_manoeuvre_location"
+#: The manoeuvring estimate's position, a LocationFix with its 1-σ (edged.channels).
+ESTIMATE_LOCATION = "/location/est/manoeuvre"
 
-_SCRIPT = f"""// The manoeuvring estimate's position as a foxglove.LocationFix, for the Map panel.
-// Written by edged (plugins/edged_foxglove/layout.py); a stale estimate is not shown.
-import {{ Input }} from "./types.ts";
-import {{ LocationFix }} from "@foxglove/schemas";
-
-export const inputs = ["/est/manoeuvre"];
-export const output = "{ESTIMATE_LOCATION}";
-
-type Estimate = {{ t?: number; lat?: number | null; lon?: number | null; stale?: boolean }};
-
-export default function script(event: Input<"/est/manoeuvre">): LocationFix | undefined {{
-  const m = event.message as unknown as Estimate;
-  if (typeof m.lat !== "number" || typeof m.lon !== "number" || m.stale === true) {{
-    return undefined;
-  }}
-  const t = typeof m.t === "number" ? m.t : 0;
-  const sec = Math.floor(t);
-  return {{
-    timestamp: {{ sec, nsec: Math.round((t - sec) * 1e9) }},
-    frame_id: "manoeuvre",
-    latitude: m.lat,
-    longitude: m.lon,
-    altitude: 0,
-    position_covariance: [0, 0, 0, 0, 0, 0, 0, 0, 0],
-    position_covariance_type: 0,
-  }} as LocationFix;
-}}
-"""
 
 
 def _series(value: str, label: str, *, right: bool = False) -> fl.PlotSeries:
@@ -136,8 +107,6 @@ def build(gnss: str = GNSS_SOURCE, log: str = LOG_SOURCE) -> fl.Layout:
             fl.SplitItem(proportion=2, content=left),
             fl.SplitItem(proportion=3, content=right),
         ]),
-        user_scripts={"edged_estimate_location": fl.UserScript(name="edged: estimate on the map",
-                                                               source_code=_SCRIPT)},
     )
 
 

@@ -17,6 +17,7 @@ from edged_foxglove.layout import ESTIMATE_LOCATION, layout_json
 from edged.channels import encode
 from edged.schemas import schema_dict
 
+from edged.estimates import ESTIMATE_KINDS
 from edged.records import KINDS, Estimate, HealthRecord, Measurement
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,7 +37,10 @@ def _channels() -> dict[str, dict[str, Any]]:
     position's LocationFix), health."""
     cfg = tomllib.loads(CONFIG.read_text(encoding="utf-8"))
     records: list[Any] = [HealthRecord(T0, {})]
-    records += [Estimate(name, name, T0, {}, body["type"]) for name, body in cfg["estimators"].items()]
+    for name, body in cfg["estimators"].items():  # (a kind with a position: its LocationFix too)
+        fields = ESTIMATE_KINDS[body["type"]].field_names
+        values = {"lat": 59.4, "lon": 24.7} if {"lat", "lon"} <= set(fields) else {}
+        records.append(Estimate(name, name, T0, values, body["type"]))
     for source in cfg["inputs"]:
         for kind in KINDS:
             values = {"lat": 59.4, "lon": 24.7} if kind == "position" else {}
@@ -128,7 +132,7 @@ def test_it_shows_the_map_speeds_manoeuvre_drafts_and_health(layout):
     assert {"/est/draft.mean_draft", "/est/draft.trim", "/est/draft.list"} <= plotted
     raw = [p for p in panels if p["panelType"] == "RawMessages"]
     assert [p["config"]["topicPath"] for p in raw] == ["/health"]
-    assert _scripts(layout)["edged_estimate_location"][:2] == (["/est/manoeuvre"], ESTIMATE_LOCATION)
+    assert not _scripts(layout)  # the estimate's fix is a channel, not a script of the browser's
 
 
 def test_a_stale_name_would_be_caught():

@@ -35,6 +35,7 @@ def test_channels_schemas_and_counts_with_the_official_reader(make_rig, tmp_path
         "/meas/draft/can0.DraftMark": 60,
         "/est/stw": 10,
         "/est/manoeuvre": 10,
+        "/location/est/manoeuvre": 10,  # the estimate's position, for the map
         "/est/draft": 10,
         "/health": 1,
     }
@@ -93,6 +94,26 @@ def test_positions_are_also_foxglove_location_fixes(make_rig, tmp_path):
     assert len(fix["position_covariance"]) == 9 and fix["position_covariance_type"] == 0
 
 
+def test_an_estimated_position_is_a_location_fix_with_its_sigma(make_rig, tmp_path):
+    """The manoeuvring estimate on the map beside the GNSS: its lat/lon and its 1-σ
+    north and east as the diagonal of the ENU covariance; a stale one is not drawn."""
+    e = Estimate("manoeuvre", "manoeuvre", 1_700_000_000.5,
+                 {"lat": 60.1, "lon": 23.5, "std": {"x": 2.0, "y": 3.0}, "stale": False}, "manoeuvre")
+    old = Estimate("manoeuvre", "manoeuvre", 1_700_000_001.5,
+                   {"lat": 60.1, "lon": 23.5, "std": {"x": 2.0, "y": 3.0}, "stale": True}, "manoeuvre")
+    none = Estimate("stw", "stw", 1_700_000_000.5, {"stw": 3.0}, "stw")
+    _, path = _record(make_rig, tmp_path, [e, old, none])
+    with open(path, "rb") as f:
+        msgs = [(s.name, ch.topic, json.loads(m.data)) for s, ch, m in make_reader(f).iter_messages()]
+    fixes = [(name, d) for name, topic, d in msgs if topic == "/location/est/manoeuvre"]
+    assert len(fixes) == 1 and fixes[0][0] == "foxglove.LocationFix"
+    fix = fixes[0][1]
+    assert (fix["latitude"], fix["longitude"], fix["frame_id"]) == (60.1, 23.5, "manoeuvre")
+    assert fix["position_covariance"][0] == 9.0 and fix["position_covariance"][4] == 4.0  # east, north
+    assert fix["position_covariance_type"] == 2
+    assert not any(topic.startswith("/location/est/stw") for _, topic, _ in msgs)
+
+
 def test_metadata_names_vessel_config_and_version(make_rig, tmp_path, records):
     _, path = _record(make_rig, tmp_path, records[:5])
     with open(path, "rb") as f:
@@ -149,4 +170,4 @@ def test_compression_options(make_rig, tmp_path, records):
         with open(tmp_path / f"{comp}.mcap", "rb") as f:
             summary = make_reader(f).get_summary()
         assert {ci.compression for ci in summary.chunk_indexes} == {"" if comp == "none" else comp}
-        assert summary.statistics.message_count == len(records) + 30
+        assert summary.statistics.message_count == len(records) + 30 + 30  # + fixes and estimates' fixes
