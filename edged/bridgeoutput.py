@@ -104,6 +104,15 @@ class BridgeOutput(OutputPlugin):
             if not hz >= 0 or hz > 1000:
                 raise ValueError(f"rates.{name}: {hz} is not a rate between 0 and 1000 Hz")
 
+    def check_estimators(self, configured: frozenset[str]) -> None:
+        """A role named in the configuration must be an estimator instance; a default
+        name that is not (no draft estimator) only leaves its messages unsent."""
+        for role in ROLES:
+            name = getattr(self.config, role)
+            if name and role in self.config.model_fields_set and name not in configured:
+                known = ", ".join(sorted(configured)) or "none"
+                raise ValueError(f"{role} = {name!r} names no estimator instance (configured: {known})")
+
     def linked(self) -> bool:
         """Whether the link is up (`ready` waits for it); the subclass says how."""
         return True

@@ -381,6 +381,11 @@ class OutputPlugin(Plugin):
     #: Live, estimates go out as they come (a worker that lags never holds the others).
     ordered: ClassVar[bool] = False
 
+    def check_estimators(self, configured: frozenset[str]) -> None:
+        """Raise ValueError when the configuration names an estimator instance that is
+        not among those `configured` (enabled or not): a configuration error naming
+        the output's table, not an output that silently never sends."""
+
     @classmethod
     def own_marks(cls, config: Any) -> dict[str, frozenset[str]]:
         """What this output's traffic carries that marks it as edged's own, by mark

@@ -140,7 +140,12 @@ class Runtime:
                 except Exception as exc:
                     raise PluginBuildError(f"estimators.{name}: {type(exc).__name__}: {exc}") from exc
         self.workers = self._link_workers(hosts)
+        configured = frozenset(cfg.estimators)
         for out in self.outputs:
+            try:
+                out.plugin.plugin.check_estimators(configured)
+            except ValueError as exc:
+                self._config_errors.append((f"outputs.{out.name}", str(exc)))
             keys = out.plugin.plugin.keys or frozenset()
             out.link([w for w in self.workers if f"est/{w.name}" in keys])
         if not self.replay:

@@ -304,3 +304,18 @@ def test_backoff_refuses_non_finite(initial, maximum, factor):
 def test_backoff_still_doubles_up_to_its_maximum():
     b = Backoff(0.5, 2.0)
     assert [b.next_delay() for _ in range(4)] == [0.5, 1.0, 2.0, 2.0]
+
+
+def test_a_bridge_output_naming_an_estimator_that_is_not_configured_is_refused(tmp_path, capsys):
+    """`stw = "stw2"` with no [estimators.stw2]: a configuration error naming the key,
+    not an output that never sends; a default role left unfilled (no draft) is fine."""
+    from edged.cli import main
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[estimators.stw]\ntype = "stw"\n[outputs.b]\ntype = "nmea0183"\nstw = "stw2"\n')
+    assert main(["check-config", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "outputs.b" in err and "stw = 'stw2' names no estimator instance (configured: stw)" in err
+    good = tmp_path / "good.toml"
+    good.write_text('[estimators.stw]\ntype = "stw"\n[outputs.b]\ntype = "nmea0183"\n')
+    assert main(["check-config", str(good)]) == 0
