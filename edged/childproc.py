@@ -207,7 +207,7 @@ class ChildProcess:
         fut: asyncio.Future[Any] = loop.create_future()
         link, conn = self._link, self._conn
         if conn is None or link.dead:
-            fut.set_exception(ChildGone(f"{self.name}'s process is gone"))
+            fut.set_exception(self._gone(link))
             return fut
         if now is None or mono is None:
             now, mono = self.clock.now(), self.clock.monotonic()
@@ -215,11 +215,16 @@ class ChildProcess:
         call = _Call(fut, self.watchdog if limit == WATCHED else limit, time.monotonic())
         with self._lock:
             if link.dead:  # the receiver saw the end of the pipe meanwhile
-                fut.set_exception(ChildGone(f"{self.name}'s process is gone"))
+                fut.set_exception(self._gone(link))
                 return fut
             link.pending.append(call)
         self._writer.submit(_send, conn, data)
         return fut
+
+    def _gone(self, link: _Link) -> "ChildGone":
+        """A call refused: the process was gone before it was sent (and why, once the
+        receiver knows: a kill's exit code is what an operator looks for)."""
+        return ChildGone(f"{self.name}'s process is gone" + (f": {link.why}" if link.why else ""))
 
     def _receive(self, conn: Any, p: Any, link: _Link, start: tuple["asyncio.Future[None]", str]) -> None:
         """(the receiver thread) The start's answer; then answers onto their calls, in
@@ -250,6 +255,7 @@ class ChildProcess:
         _join(p, 1.0)
         why = ChildDied(link.why or f"{self.name}'s process died (exit code {p.exitcode})")
         with self._lock:  # no call is queued behind this: it would wait for ever
+            link.why = str(why)  # what a call made from now on is refused with
             link.dead = True
             left = [c.future for c in pending]
             pending.clear()
