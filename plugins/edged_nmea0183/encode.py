@@ -35,6 +35,10 @@ __all__ = ["SENTENCES", "sentence", "xdr_name", "MAX_SENTENCE"]
 
 #: The longest sentence NMEA 0183 allows, `$` to the line end included.
 MAX_SENTENCE = 82
+#: The largest magnitude each kind of field carries (kn, km/h, °/min, m). Beyond it (a
+#: filter that diverged) the field is "not available", its status V: a sentence never
+#: outgrows its 82 characters, and no instrument is handed an absurd number.
+MAX_KNOTS, MAX_KMH, MAX_ROT, MAX_METRES = 999.99, 1999.99, 9999.9, 99.99
 _KMH = 1000.0 / 3600.0
 _DEG = 180.0 / math.pi
 
@@ -64,28 +68,39 @@ def _status(*values: float | None) -> str:
     return "A" if all(v is not None for v in values) else "V"
 
 
-def _ratio(v: float | None, unit: float) -> float | None:
-    return None if v is None else v / unit
+def _ratio(v: float | None, unit: float, limit: float) -> float | None:
+    """`v` in `unit`s, None beyond `limit`."""
+    if v is None:
+        return None
+    x = v / unit
+    return x if abs(x) <= limit else None
+
+
+def _metres(v: float | None) -> float | None:
+    return _ratio(v, 1.0, MAX_METRES)
 
 
 def vhw(view: BridgeView, talker: str) -> bytes:
     stw = view.get("stw", "stw")
+    kn, kmh = _ratio(stw, KNOT, MAX_KNOTS), _ratio(stw, _KMH, MAX_KMH)
+    if kn is None or kmh is None:
+        kn = kmh = None
     return sentence(talker, "VHW", (_bearing(view.get("manoeuvre", "heading")), "T", "", "M",
-                                    _num(_ratio(stw, KNOT), 2), "N", _num(_ratio(stw, _KMH), 2), "K"))
+                                    _num(kn, 2), "N", _num(kmh, 2), "K"))
 
 
 def vbw(view: BridgeView, talker: str) -> bytes:
-    wl, wt = view.get("stw", "stw_long"), view.get("stw", "stw_trans")
-    gl, gt = view.get("manoeuvre", "u"), view.get("manoeuvre", "v")
+    wl, wt = (_ratio(view.get("stw", f), KNOT, MAX_KNOTS) for f in ("stw_long", "stw_trans"))
+    gl, gt = (_ratio(view.get("manoeuvre", f), KNOT, MAX_KNOTS) for f in ("u", "v"))
     return sentence(talker, "VBW", (
-        _num(_ratio(wl, KNOT), 2), _num(_ratio(wt, KNOT), 2), _status(wl, wt),
-        _num(_ratio(gl, KNOT), 2), _num(_ratio(gt, KNOT), 2), _status(gl, gt),
+        _num(wl, 2), _num(wt, 2), _status(wl, wt),
+        _num(gl, 2), _num(gt, 2), _status(gl, gt),
         "", "V", "", "V"))
 
 
 def vdr(view: BridgeView, talker: str) -> bytes:
     return sentence(talker, "VDR", (_bearing(view.get("stw", "current_set")), "T", "", "M",
-                                    _num(_ratio(view.get("stw", "current"), KNOT), 2), "N"))
+                                    _num(_ratio(view.get("stw", "current"), KNOT, MAX_KNOTS), 2), "N"))
 
 
 def hdt(view: BridgeView, talker: str) -> bytes:
@@ -93,8 +108,8 @@ def hdt(view: BridgeView, talker: str) -> bytes:
 
 
 def rot(view: BridgeView, talker: str) -> bytes:
-    r = view.get("manoeuvre", "r")
-    return sentence(talker, "ROT", (_num(None if r is None else r * _DEG * 60.0, 1), _status(r)))
+    rot = _ratio(view.get("manoeuvre", "r"), 1.0 / (_DEG * 60.0), MAX_ROT)
+    return sentence(talker, "ROT", (_num(rot, 1), _status(rot)))
 
 
 def xdr_name(mark: str) -> str:
@@ -105,10 +120,10 @@ def xdr_name(mark: str) -> str:
 
 
 def _xdr_readings(view: BridgeView) -> list[tuple[str, str, str, str]]:
-    readings = [("D", _num(view.mark(m), 2), "M", xdr_name(m)) for m in view.marks()]
-    readings.append(("D", _num(view.get("draft", "mean_draft"), 2), "M", "DRAFT_MEAN"))
-    readings.append(("D", _num(view.get("draft", "trim"), 2), "M", "TRIM"))
-    readings.append(("D", _num(view.get("draft", "list"), 2), "M", "LIST"))
+    readings = [("D", _num(_metres(view.mark(m)), 2), "M", xdr_name(m)) for m in view.marks()]
+    readings.append(("D", _num(_metres(view.get("draft", "mean_draft")), 2), "M", "DRAFT_MEAN"))
+    readings.append(("D", _num(_metres(view.get("draft", "trim")), 2), "M", "TRIM"))
+    readings.append(("D", _num(_metres(view.get("draft", "list")), 2), "M", "LIST"))
     return readings
 
 

@@ -5,9 +5,12 @@ out empty with status V; rates are judged on data time; bad configuration is ref
 from __future__ import annotations
 
 import math
+import os
 
 import pynmea2
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from bridge_rig import MARKS, T0, CaptureSink, Ctx, draft, manoeuvre, stw
@@ -193,3 +196,24 @@ async def test_rates_a_serial_line_cannot_carry_are_named_at_open() -> None:
     slowed = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183", transport="serial", device="/dev/edged-none",
                                                  rates={"HDT": 2, "ROT": 1}), Ctx().ctx)
     assert slowed.serial_overload() is None  # about 360 characters a second: it fits
+
+
+_ANY = st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**30, 10**30),
+                 st.booleans(), st.text(max_size=3))
+
+
+@settings(max_examples=int(os.environ.get("EDGED_FUZZ_EXAMPLES", "200")), deadline=None, derandomize=True)
+@given(s=st.fixed_dictionaries({k: _ANY for k in ("stw", "stw_long", "stw_trans", "current", "current_set")}),
+       m=st.fixed_dictionaries({k: _ANY for k in ("heading", "r", "u", "v")}),
+       d=st.fixed_dictionaries({k: _ANY for k in ("mean_draft", "trim", "list")}), mark=_ANY)
+def test_any_value_an_estimate_may_hold_gives_sentences_that_parse_and_fit(s, m, d, mark) -> None:
+    """A filter that diverged (1e30 m/s), NaN, infinity, a string: every sentence still
+    parses with its checksum, within 82 characters; what no field carries is empty, V."""
+    out, sink, _ = make()
+    marks = {k: {"mean": mark, "ok": True} for k in MARKS}
+    out.write([manoeuvre(**m), stw(**s), draft(marks=marks, **d)])
+    got = parsed(sink)  # (asserts the length of every line and its checksum)
+    assert sorted(got) == ["HDT", "ROT", "VBW", "VDR", "VHW", "XDR"]
+    vbw = got["VBW"][-1]
+    assert (vbw.data_validity_water_spd == "A") == (vbw.lon_water_spd not in (None, "")
+                                                    and vbw.trans_water_spd not in (None, ""))
