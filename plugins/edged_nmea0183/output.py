@@ -21,7 +21,6 @@ from typing import Any, ClassVar
 
 from pydantic import Field, field_validator
 
-
 from edged.bridgeoutput import BridgeOutputConfig, Message, TextBridgeOutput
 from edged.bytesinks import TransportSettings
 
