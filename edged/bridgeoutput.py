@@ -117,6 +117,19 @@ class BridgeOutput(OutputPlugin):
         """Whether the link is up (`ready` waits for it); the subclass says how."""
         return True
 
+    def link_problems(self) -> list[str]:
+        """What health shows while the messages cannot go (`ok: false`): the link down.
+        A subclass may add its own (an NMEA 2000 address not held)."""
+        if self.linked():
+            return []
+        return [f"not delivering: the link is {self.ctx.health.info.get('link') or 'not open'}"]
+
+    def status(self) -> dict[str, Any]:
+        """(each health snapshot) An output whose link is down is not ok, whatever
+        its state: the instruments get nothing."""
+        self.ctx.health.set_problems(self.link_problems())
+        return {}
+
     async def ready(self, timeout: float | None = None) -> bool:
         """Until `linked()` (polled), at most `timeout` s of wall time (default
         `replay_wait`): a replay's first messages are not lost to a link that is
@@ -183,4 +196,5 @@ class TextBridgeOutput(BridgeOutput):
         return self.sink.send(payload)
 
     def status(self) -> dict[str, Any]:
+        super().status()
         return self.sink.status() if self.sink is not None else {}

@@ -217,3 +217,27 @@ def test_any_value_an_estimate_may_hold_gives_sentences_that_parse_and_fit(s, m,
     vbw = got["VBW"][-1]
     assert (vbw.data_validity_water_spd == "A") == (vbw.lon_water_spd not in (None, "")
                                                     and vbw.trans_water_spd not in (None, ""))
+
+
+async def test_an_output_whose_link_is_down_is_not_ok() -> None:
+    """A serial port that is not there: the output runs, its messages are counted
+    unsent, and health says it is not ok (an instrument gets nothing); with its link
+    up, the same output is ok."""
+    c = Ctx()
+    out = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183", transport="serial", device="/dev/edged-none"), c.ctx)
+    c.health.set_state("running")
+    await out.open()
+    try:
+        out.write([manoeuvre()])
+        out.status()
+        snap = c.health.snapshot()
+        assert not snap["ok"] and snap["problems"][0].startswith("not delivering: the link is")
+        assert snap["counters"]["unsent.link_down"] == 2 and "sent" not in snap["counters"]
+    finally:
+        await out.close()
+    up = Ctx()
+    linked = Nmea0183Output(Nmea0183OutputConfig(type="nmea0183"), up.ctx)
+    linked.sink = CaptureSink()
+    up.health.set_state("running")
+    linked.status()
+    assert up.health.snapshot()["ok"]

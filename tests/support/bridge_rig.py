@@ -52,6 +52,8 @@ class Ctx:
 class CaptureSink:
     """A byte sink that keeps what is sent (the transports have tests of their own)."""
 
+    up = True  # a link that is there
+
     def __init__(self) -> None:
         self.sent: list[bytes] = []
 

@@ -143,5 +143,12 @@ class Nmea2000Output(BridgeOutput):
             payload = payload._replace(src=addr)
         return self.link.send(payload)
 
+    def link_problems(self) -> list[str]:
+        problems = super().link_problems()
+        if not problems and self.citizen is not None and self.citizen.address is None:
+            problems.append("not delivering: no address of its own on the bus (claiming, or none free)")
+        return problems
+
     def status(self) -> dict[str, Any]:
+        super().status()
         return {"transport": self.config.transport, "where": self.config.where()}

@@ -177,3 +177,15 @@ async def test_a_flood_of_requests_gets_one_answer_a_second(make_rig: Any) -> No
     rig.peer.send(6, 59904, 10, addr, request(126996))
     await rig.peer.message(126996, src=addr)
     assert rig.health.counters["requests_answered"] == 2
+
+
+async def test_health_is_not_ok_while_no_address_is_ours(make_rig: Any) -> None:
+    """On the bus but still claiming (or with none free): nothing goes out, and health
+    says so; once the address is held, the problem is gone."""
+    rig = await make_rig()
+    await rig.out.link.connected.wait()
+    rig.out.status()
+    assert rig.health.problems == ["not delivering: no address of its own on the bus (claiming, or none free)"]
+    await rig.claimed()
+    rig.out.status()
+    assert rig.health.problems == []
