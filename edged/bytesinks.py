@@ -35,7 +35,27 @@ from .link import Link, LinkLost
 from .plugin import Claim, listen_claim, serial_claim
 from .serialport import open_serial
 
-__all__ = ["TransportSettings", "ByteSink", "UdpSink", "TcpServerSink", "SerialSink", "make_sink"]
+__all__ = ["TransportSettings", "ByteSink", "UdpSink", "TcpServerSink", "SerialSink", "make_sink", "write_bounded"]
+
+
+def write_bounded(w: asyncio.StreamWriter | None, data: bytes, limit: int, health: ComponentHealth,
+                  where: str, dropped: str = "dropped.slow_client") -> bool:
+    """Write `data` to a stream without waiting: False, counted, when the stream is
+    closed (`unsent.link_down`), when more than `limit` bytes would wait for a peer
+    slower than the messages (`dropped`), or when the write fails (`errors.send`)."""
+    if w is None or w.transport.is_closing():
+        health.count("unsent.link_down")
+        return False
+    if w.transport.get_write_buffer_size() + len(data) > limit:
+        health.count(dropped)
+        return False
+    try:
+        w.write(data)
+    except OSError as exc:
+        health.count("errors.send")
+        health.error(f"{where}: write: {exc}")
+        return False
+    return True
 
 
 class TransportSettings(ReconnectSettings):
@@ -277,20 +297,8 @@ class SerialSink(ByteSink):
         await self.link.run(opener, session, close)
 
     def send(self, data: bytes) -> bool:
-        w = self._writer
-        if w is None or w.transport.is_closing():
-            self.health.count("unsent.link_down")
-            return False
-        if w.transport.get_write_buffer_size() + len(data) > self.line_buffer:
-            self.health.count("dropped.slow_client")  # the line is slower than the sentences
-            return False
-        try:
-            w.write(data)
-        except OSError as exc:
-            self.health.count("errors.send")
-            self.health.error(f"serial write: {exc}")
-            return False
-        return True
+        # (dropped.slow_client: the line is slower than the sentences)
+        return write_bounded(self._writer, data, self.line_buffer, self.health, self.link.where)
 
 
 def make_sink(settings: TransportSettings, health: ComponentHealth) -> ByteSink:

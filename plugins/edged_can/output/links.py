@@ -29,6 +29,7 @@ import asyncio
 import contextlib
 from typing import Any, Awaitable, Callable
 
+from edged.bytesinks import write_bounded
 from edged.health import ComponentHealth
 from edged.link import Link, LinkLost
 
@@ -204,16 +205,7 @@ class _StreamLink(N2kLink):
             self.health.count("errors.send")
             self.health.error(f"{self.link.where}: PGN {frame.pgn}: {exc}")
             return False
-        if w.transport.get_write_buffer_size() + len(data) > self.config.link_buffer:
-            self.health.count("dropped.slow_link")
-            return False
-        try:
-            w.write(data)
-        except OSError as exc:
-            self.health.count("errors.send")
-            self.health.error(f"{self.link.where}: write: {exc}")
-            return False
-        return True
+        return write_bounded(w, data, self.config.link_buffer, self.health, self.link.where, "dropped.slow_link")
 
 
 class YdwgLink(_StreamLink):
