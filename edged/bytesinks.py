@@ -23,7 +23,6 @@ Servers bind 127.0.0.1 unless configured: a bridge that serves the ship's LAN sa
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import socket
 from typing import Any, Literal
 
@@ -31,7 +30,7 @@ from pydantic import Field, model_validator
 
 from .config import ReconnectSettings
 from .health import ComponentHealth
-from .link import Link, LinkLost
+from .link import Link, LinkLost, stop_task
 from .plugin import Claim, listen_claim, serial_claim
 from .serialport import open_serial
 
@@ -129,11 +128,8 @@ class ByteSink:
         return self.health.info.get("link") == "connected"
 
     async def close(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self._task
-            self._task = None
+        task, self._task = self._task, None
+        await stop_task(task)
 
     def status(self) -> dict[str, Any]:
         return {}

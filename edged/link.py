@@ -26,12 +26,13 @@ delay again instead of the last, longest one.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from typing import Any, Awaitable, Callable, Final, Generic, TypeVar
 
 from .backoff import Backoff
 from .health import ComponentHealth
 
-__all__ = ["LinkState", "LinkLost", "LinkStale", "Link", "Sleep"]
+__all__ = ["LinkState", "LinkLost", "LinkStale", "Link", "Sleep", "stop_task"]
 
 Sleep = Callable[[float], Awaitable[Any]]
 C = TypeVar("C")
@@ -185,3 +186,13 @@ class Link(Generic[C]):
             h.count("disconnects")
             self.set_state(LinkState.DISCONNECTED, reason)
             await self._wait()
+
+
+async def stop_task(task: "asyncio.Task[Any] | None") -> None:
+    """Cancel a task that keeps a link (or any background task) and wait for its end,
+    whatever it ended with: closing never raises for what the task did."""
+    if task is None:
+        return
+    task.cancel()
+    with contextlib.suppress(asyncio.CancelledError, Exception):
+        await task

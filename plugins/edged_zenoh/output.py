@@ -28,6 +28,7 @@ from typing import Any, Callable, ClassVar, Literal
 import zenoh
 from pydantic import Field, field_validator
 
+from edged.link import stop_task
 from edged.plugin import OutputConfig, OutputPlugin, PluginContext
 from edged.records import KINDS, Estimate, HealthRecord, Measurement
 
@@ -241,10 +242,7 @@ class ZenohOutput(OutputPlugin):
 
     async def close(self) -> None:
         task, self._connector = self._connector, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+        await stop_task(task)
         session, self._session = self._session, None
         self.connected.clear()
         token, self._token = self._token, None

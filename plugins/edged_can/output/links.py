@@ -26,12 +26,11 @@ gateway does not take the bytes as fast as they come, `errors.send`).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from typing import Any, Awaitable, Callable
 
 from edged.bytesinks import write_bounded
 from edged.health import ComponentHealth
-from edged.link import Link, LinkLost
+from edged.link import Link, LinkLost, stop_task
 
 from . import wire
 from .config import Nmea2000OutputConfig
@@ -69,11 +68,8 @@ class N2kLink:
         raise NotImplementedError
 
     async def close(self) -> None:
-        if self._task is not None:
-            self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError, Exception):
-                await self._task
-            self._task = None
+        task, self._task = self._task, None
+        await stop_task(task)
         self.connected.clear()
 
     def send(self, frame: Frame) -> bool:

@@ -20,9 +20,9 @@ of edged refuses frames from the address that NAME claimed (`rejected.own_output
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from typing import Any, ClassVar
 
+from edged.link import stop_task
 from edged.plugin import PluginContext
 from edged.bridgeoutput import BridgeOutput, Message
 
@@ -80,11 +80,8 @@ class Nmea2000Output(BridgeOutput):
             self._ticker = asyncio.get_running_loop().create_task(self._tick_loop(), name=f"{self.ctx.name} n2k claim")
 
     async def close(self) -> None:
-        if self._ticker is not None:
-            self._ticker.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._ticker
-            self._ticker = None
+        ticker, self._ticker = self._ticker, None
+        await stop_task(ticker)
         await self.link.close()
 
     async def _tick_loop(self) -> None:
