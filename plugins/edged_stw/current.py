@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gating import cap_variance, consider_update
-from .kalman import identity, innovation, innovation_rows, innovation_scalar, update, update_rows, update_scalar
+from .kalman import identity, innovation, innovation_rows, innovation_scalar, update, update_scalar
 
 C, RATE, S, K = slice(0, 2), slice(2, 4), 4, 5
 N_STATE = 6
