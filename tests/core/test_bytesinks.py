@@ -13,7 +13,7 @@ from pydantic import ValidationError
 
 from edged.clock import ManualClock
 from edged.health import ComponentHealth
-from edged.bytesinks import TcpServerSink, TransportSettings, make_sink
+from edged.bytesinks import TcpServerSink, TransportSettings, make_sink, write_bounded
 from waiting import wait_for
 
 WAIT = 10.0
@@ -154,3 +154,52 @@ async def test_udp_broadcast_is_allowed_only_when_configured() -> None:
         sock = sink._transport.get_extra_info("socket")  # type: ignore[attr-defined]
         assert bool(sock.getsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST)) is broadcast
         await sink.close()
+
+
+class _Transport:
+    def __init__(self, waiting: int = 0, closing: bool = False, fails: bool = False) -> None:
+        self.waiting, self.closing, self.fails, self.written = waiting, closing, fails, b""
+
+    def is_closing(self) -> bool:
+        return self.closing
+
+    def get_write_buffer_size(self) -> int:
+        return self.waiting
+
+    def write(self, data: bytes) -> None:
+        if self.fails:
+            raise OSError(5, "Input/output error")
+        self.written += data
+
+    sendto = write
+
+
+class _Writer:
+    def __init__(self, transport: _Transport) -> None:
+        self.transport = transport
+
+    def write(self, data: bytes) -> None:
+        self.transport.write(data)
+
+
+@pytest.mark.parametrize("transport, counter", [
+    (None, "unsent.link_down"),  # not open
+    (_Transport(closing=True), "unsent.link_down"),
+    (_Transport(waiting=1000), "dropped.slow_link"),  # a peer slower than the messages
+    (_Transport(fails=True), "errors.send"),  # an adapter unplugged mid-write
+])
+def test_a_bounded_write_that_cannot_go_is_counted_never_raised(transport, counter) -> None:
+    h = health()
+    w = None if transport is None else _Writer(transport)
+    assert write_bounded(w, b"x" * 100, 1024, h, "serial /dev/x", "dropped.slow_link") is False
+    assert {k: v for k, v in h.counters.items() if k != "errors"} == {counter: 1}  # (errors: the logged ones)
+    ok = _Writer(_Transport(waiting=900))
+    assert write_bounded(ok, b"x" * 100, 1024, h, "serial /dev/x") is True and ok.transport.written == b"x" * 100
+
+
+def test_a_udp_send_the_kernel_refuses_is_counted() -> None:
+    h = health()
+    sink = make_sink(settings(transport="udp", port=9), h)
+    sink._transport = _Transport(fails=True)  # type: ignore[attr-defined,assignment]
+    assert sink.send(b"x") is False
+    assert h.counters["errors.send"] == 1 and "udp send" in (h.last_error or "")
